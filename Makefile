@@ -43,7 +43,7 @@ typecheck: $(STAMP)
 	$(VENV)/bin/mypy
 
 test-python: $(STAMP)
-	$(VENV)/bin/pytest $(PYTEST_ARGS)
+	$(VENV)/bin/pytest -m "not fuzz" $(PYTEST_ARGS)
 
 ## Install what is needed and pass every test.
 test: check-generated lint typecheck test-python

@@ -41,8 +41,12 @@ def ascii_fold(text: str) -> str:
 
 
 def _compile(folded: str) -> _Compiled:
-    """Split a folded pattern into its literal parts, with the subtree-root alternative."""
-    root = tuple(folded[:-2].split("*")) if folded.endswith(".*") else None
+    """Split a folded pattern into its literal parts, with the subtree-root alternative.
+
+    The root alternative is the pattern without its final `.*`, compared literally (OA-MATCH-4):
+    `Input.Perc.*` also matches `Input.Perc`, but `A.*.B.*` does not match `A.X.B`.
+    """
+    root = (folded[:-2],) if folded.endswith(".*") else None
     return tuple(folded.split("*")), root
 
 
@@ -69,8 +73,8 @@ def _glob(parts: _Parts, t: str) -> bool:
 def _matches_compiled(compiled: _Compiled, t: str) -> bool:
     """Return whether a compiled pattern matches the folded type `t`."""
     parts, root = compiled
-    # OA-MATCH-4: `P.*` also matches the type equal to `P` (one application: `A.*.*` does not
-    # match `A`, since `A.*` is what remains and `A.*` as a glob needs `A.` plus a run).
+    # OA-MATCH-4: `P.*` also matches the type equal to `P`, compared literally (so `A.*.*`
+    # matches neither `A` nor `A.X`-through-the-root; only the literal text `A.*` would).
     return _glob(parts, t) or (root is not None and _glob(root, t))
 
 
@@ -204,10 +208,12 @@ _GlobEntry = tuple[str, str, _Compiled, set[K]]
 def _glob_entry(folded: str) -> _GlobEntry[K]:
     """Compile a general glob (one with a `*` before its end) for the index."""
     compiled = _compile(folded)
-    parts, root = compiled
-    # Every part of the root alternative lies inside a part of the full pattern, so a part of
-    # the root (when there is one) must occur in any type that either alternative matches.
-    needle = max((root or parts)[1:], key=len)
+    parts = compiled[0]
+    # A type matched by either alternative contains every `*`-separated part of the root text
+    # (the literal root contains them all; a full match contains them inside the pattern's
+    # parts), so the longest such part is a cheap necessary condition.
+    root_parts = folded[:-2].split("*") if folded.endswith(".*") else None
+    needle = max((root_parts or parts)[1:], key=len)
     return parts[0], needle, compiled, set()
 
 

@@ -96,10 +96,12 @@ def test_index_match_returns_a_fresh_set() -> None:
 @pytest.mark.parametrize(
     ("pattern", "type_", "expected"),
     [
-        ("A.*.B.*", "A.X.B", True),  # OA-MATCH-4 with another star
+        ("A.*.B.*", "A.X.B", False),  # OA-MATCH-4: the root `A.*.B` is literal
         ("A.*.*", "A", False),  # OA-MATCH-4 applies once
-        ("A.*.*", "A.X", True),
-        ("*.*", "A", True),  # root of `*.*` is `*`
+        ("A.*.*", "A.X", False),
+        ("A.*.*", "A.X.Y", True),
+        ("*.*", "A", False),  # root of `*.*` is the literal `*`
+        ("*.*", "A.B", True),
         ("Test.*.A", "Test.A", False),  # OA-MATCH-6 no overlap
         ("*.A", "X.A.A", True),  # OA-MATCH-6 no first-occurrence quirk
         ("\u00c4", "\u00e4", False),  # OA-MATCH-1 ASCII only

@@ -22,7 +22,7 @@ def reference_matches(pattern: str, type_: str) -> bool:
     """Whole-type match, `*` = any run (dots included), ASCII case ignored, `P.*` also matches P."""
     alternatives = [_glob_regex(pattern)]
     if pattern.endswith(".*"):
-        alternatives.append(_glob_regex(pattern[:-2]))
+        alternatives.append(re.escape(pattern[:-2]))  # OA-MATCH-4: the root is literal
     regex = "|".join(f"(?:{alt})" for alt in alternatives)
     return re.fullmatch(regex, type_, re.ASCII | re.IGNORECASE | re.DOTALL) is not None
 

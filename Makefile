@@ -29,11 +29,17 @@ serve: $(STAMP)
 generate: $(STAMP)
 	$(PY) tools/gen_errors.py
 	$(PY) tools/gen_catalogue.py
+	$(PY) tools/gen_frame_vectors.py
+	$(PY) tools/gen_message_vectors.py
+	$(PY) tools/gen_session_vectors.py
 
 ## Fail if a generated file is stale.
 check-generated: $(STAMP)
 	$(PY) tools/gen_errors.py --check
 	$(PY) tools/gen_catalogue.py --check
+	$(PY) tools/gen_frame_vectors.py --check
+	$(PY) tools/gen_message_vectors.py --check
+	$(PY) tools/gen_session_vectors.py --check
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check reference conformance tests tools bench

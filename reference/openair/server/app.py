@@ -1,0 +1,325 @@
+"""The asyncio reference server: listening socket, connections, delivery, shutdown (spec 6).
+
+`start_server(options)` returns a `Server` that is already listening (port 0 picks a free port;
+`Server.port` is the real one). The sans-I/O `Router` decides everything; this module only moves
+bytes and time: `ServerConnection` (protocol.py) frames and decodes, `Dispatcher` (delivery.py)
+queues and sends deliveries, and `Server` ties connection ids to transports, which the router
+never holds.
+
+`Server.stop()` shuts down as OA-SESS-24 says: stop accepting, answer new requests
+`SHUTTING_DOWN` (the router does, after `shutting_down()`), attempt the deliveries already
+decided within the grace period, count the rest DELIVERY_FAILED, close every connection, close
+the store. Log lines go to the logger `openair.server` as `event=NAME key=value …`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import socket
+import time
+from collections.abc import Coroutine
+from dataclasses import dataclass, field
+
+from openair.framing import FrameTag
+from openair.message import Message
+from openair.server.config import ServerConfig, ServerLimits, default_config, load_config
+from openair.server.delivery import DeliveryOptions, Dispatcher
+from openair.server.protocol import FlowLimits, Role, ServerConnection
+from openair.server.router import ModuleInfo, Outcome, Router
+from openair.server.store import HistoryStore, open_store
+
+__all__ = ["DEFAULT_EXTENSIONS", "Server", "ServerOptions", "start_server"]
+
+log = logging.getLogger("openair.server")
+
+#: Extensions the reference server implements; `durable` is added only with a durable store.
+DEFAULT_EXTENSIONS = frozenset({"noreply", "pipelining", "usec", "gettime"})
+_BINDS = frozenset({"BIND", "BIND_NOLISTEN"})
+_WILDCARD_HOSTS = frozenset({"", "0.0.0.0", "::"})
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ServerOptions:
+    """How to run a server: where to listen, what to serve, and its limits and timing."""
+
+    host: str = "127.0.0.1"
+    port: int = 10000
+    config: ServerConfig | None = None
+    config_path: str | None = None
+    store: str = "memory"
+    limits: ServerLimits = field(default_factory=ServerLimits)
+    extensions: frozenset[str] = DEFAULT_EXTENSIONS
+    grace_s: float = 5.0  # OA-SESS-24
+    delivery: DeliveryOptions = field(default_factory=DeliveryOptions)
+    flow: FlowLimits = field(default_factory=FlowLimits)
+    backlog: int = 1024
+
+
+def free_port(requested: int) -> int:
+    """Return `requested` if it can be bound on this host, else a free port (binding port 0).
+
+    The router asks for a port when a module BINDs without one (DESIGN-NOTES: the server picks a
+    port free on its own host). The socket is closed at once; the module binds it next.
+    """
+    for port in (requested, 0) if requested > 0 else (0,):
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+            try:
+                sock.bind(("", port))
+            except OSError:
+                continue
+            return int(sock.getsockname()[1])
+    raise OSError("no free port")
+
+
+class Server:
+    """A running OpenAIR server; build it with `start_server`."""
+
+    def __init__(self, options: ServerOptions, config: ServerConfig, store: HistoryStore) -> None:
+        self.options = options
+        self.config = config
+        self.store = store
+        self.host = options.host
+        self.port = options.port
+        self.limits = options.limits
+        self.flow = options.flow
+        self.extensions = _extensions(options.extensions, store)
+        self.router: Router
+        self._listener: asyncio.Server | None = None
+        self._conns: dict[int, ServerConnection] = {}
+        self._outbound: set[ServerConnection] = set()
+        self._next_id = 0
+        self._stopping = False
+        self._final = False
+        self._done: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        self._tasks: set[asyncio.Task[int]] = set()
+        self.dispatcher = Dispatcher(
+            self,
+            capacity=options.limits.max_queue,
+            max_in_flight=options.limits.max_in_flight,
+            options=options.delivery,
+        )
+        self.delivered_total = 0
+        self.dropped_total: dict[str, int] = {"QUEUE_OVERFLOW": 0, "DELIVERY_FAILED": 0}
+
+    # -- ConnectionHost -------------------------------------------------------------------------
+
+    def connection_opened(self, conn: ServerConnection) -> int:
+        self._next_id += 1
+        self._conns[self._next_id] = conn
+        self.router.connection_opened(self._next_id, address=conn.peer[0])
+        log.info("event=connect conn=%d peer=%s:%d", self._next_id, *conn.peer)
+        return self._next_id
+
+    def handle(
+        self, conn: ServerConnection, msg: Message, *, tag: FrameTag, received_ns: int
+    ) -> Outcome:
+        outcome = self.router.handle(
+            conn.conn_id, msg, tag=tag, received_ns=received_ns, now_ns=time.time_ns()
+        )
+        if msg.type in _BINDS:
+            self._note_bind(conn, msg, outcome)
+        self._apply(outcome, conn.conn_id)
+        return outcome
+
+    def callback_opened(self, conn: ServerConnection, module: str) -> None:
+        log.info("event=callback conn=%d module=%s", conn.conn_id, module)
+        self.dispatcher.poke(module)
+
+    def connection_lost(self, conn: ServerConnection) -> None:
+        self._conns.pop(conn.conn_id, None)
+        if self._final:
+            return  # the server is going away: no Lost notices into a closed store
+        outcome = self.router.connection_closed(conn.conn_id, now_ns=time.time_ns())
+        self._apply(outcome, conn.conn_id)
+        if conn.role is Role.CALLBACK:
+            self.dispatcher.poke(conn.module)
+
+    def _note_bind(self, conn: ServerConnection, msg: Message, outcome: Outcome) -> None:
+        """Log binds and takeovers (OA-SESS-6), and wake the module's delivery task."""
+        info = self.router.module(msg.sender)
+        if info is None or info.conn != conn.conn_id:
+            return
+        for old in outcome.close_conns:
+            log.info("event=takeover module=%s old_conn=%d conn=%d", msg.sender, old, conn.conn_id)
+        log.info(
+            "event=bind module=%s conn=%d port=%d extensions=%s",
+            msg.sender,
+            conn.conn_id,
+            info.port,
+            ",".join(sorted(info.extensions)) or "-",
+        )
+        self.dispatcher.poke(msg.sender)
+
+    def _apply(self, outcome: Outcome, this: int) -> None:
+        """Queue the outcome's deliveries and close the connections it names (not `this`)."""
+        if not self._final:
+            for delivery in outcome.deliveries:
+                self.dispatcher.push(delivery)
+        for conn_id in outcome.close_conns:
+            other = self._conns.get(conn_id)
+            if other is not None and conn_id != this:
+                other.close()
+        for name in outcome.discard_queues:
+            log.info("event=lost module=%s conn=%d", name, this)
+            self._spawn(self.dispatcher.discard(name))  # OA-SESS-15
+
+    def _spawn(self, coro: Coroutine[object, object, int]) -> None:
+        task = asyncio.get_running_loop().create_task(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    # -- DeliveryHost ---------------------------------------------------------------------------
+
+    def module_info(self, name: str) -> ModuleInfo | None:
+        return self.router.module(name)
+
+    def connection(self, conn_id: int) -> ServerConnection | None:
+        return self._conns.get(conn_id)
+
+    async def connect(self, module: str, address: str, port: int) -> ServerConnection:
+        loop = asyncio.get_running_loop()
+        _, conn = await loop.create_connection(
+            lambda: ServerConnection(self, Role.OUTBOUND), address, port
+        )
+        conn.module = module
+        self._outbound.add(conn)
+        conn.closed.add_done_callback(lambda _: self._outbound.discard(conn))
+        log.info("event=deliver_connect module=%s address=%s port=%d", module, address, port)
+        return conn
+
+    def delivered(self, module: str, count: int) -> None:
+        self.delivered_total += count
+        for _ in range(count):
+            self.router.note_delivered(module)
+
+    def dropped(self, module: str, count: int, reason: str) -> None:
+        self.dropped_total[reason] = self.dropped_total.get(reason, 0) + count
+        self.router.note_dropped(module, count)
+
+    # -- life cycle -----------------------------------------------------------------------------
+
+    def _protocol(self) -> ServerConnection:
+        return ServerConnection(self, Role.RESPONDER)
+
+    async def _listen(self) -> None:
+        """Bind the listening socket, build the router with the real port, start serving."""
+        loop = asyncio.get_running_loop()
+        self._listener = await loop.create_server(
+            self._protocol,
+            self.options.host,
+            self.options.port,
+            start_serving=False,
+            backlog=self.options.backlog,
+            reuse_address=True,
+        )
+        self.port = int(self._listener.sockets[0].getsockname()[1])
+        address = "127.0.0.1" if self.host in _WILDCARD_HOSTS else self.host
+        self.router = Router(
+            self.config,
+            self.store,
+            server_name=self.config.name,
+            address=address,
+            port=self.port,
+            limits=self.limits,
+            extensions=self.extensions,
+            port_allocator=free_port,
+        )
+        self._apply(self.router.start(time.time_ns()), 0)  # OA-SESS-31: System.Ready
+        await self._listener.start_serving()
+        log.info(
+            "event=listening host=%s port=%d whiteboards=%s extensions=%s",
+            self.host,
+            self.port,
+            ",".join(self.whiteboards),
+            ",".join(sorted(self.extensions)),
+        )
+
+    @property
+    def whiteboards(self) -> tuple[str, ...]:
+        """The names of the configured whiteboards."""
+        return tuple(wb.name for wb in self.config.whiteboards)
+
+    def counters(self) -> dict[str, object]:
+        """The router's counters plus every module's queue and delivery counters."""
+        counters = dict(self.router.counters())
+        counters["queues"] = self.dispatcher.counters()
+        counters["connections"] = len(self._conns)
+        counters["delivered"] = self.delivered_total
+        counters["dropped"] = dict(self.dropped_total)
+        return counters
+
+    async def serve_forever(self) -> None:
+        """Wait until the server has stopped."""
+        await asyncio.shield(self._done)
+
+    async def stop(self) -> None:
+        """Shut down gracefully (OA-SESS-24); a second call waits for the first."""
+        if self._stopping:
+            await asyncio.shield(self._done)
+            return
+        self._stopping = True
+        log.info("event=shutdown phase=begin pending=%d", self.dispatcher.pending)
+        if self._listener is not None:
+            self._listener.close()  # stop accepting
+        self.router.shutting_down()  # OA-SESS-24: later requests get SHUTTING_DOWN
+        try:
+            await asyncio.wait_for(self.dispatcher.drained(), self.options.grace_s)
+        except TimeoutError:
+            log.warning("event=shutdown phase=grace_over pending=%d", self.dispatcher.pending)
+        self._final = True
+        abandoned = await self.dispatcher.stop()  # counted DELIVERY_FAILED
+        await self._close_connections()
+        if self._tasks:
+            await asyncio.gather(*self._tasks, return_exceptions=True)
+        self.store.close()
+        log.info("event=shutdown phase=done abandoned=%d", abandoned)
+        if not self._done.done():
+            self._done.set_result(None)
+
+    async def _close_connections(self) -> None:
+        """Close every connection, flushing replies; abort what does not close in time."""
+        conns = [*self._conns.values(), *self._outbound]
+        for conn in conns:
+            conn.close(linger=False)
+        waits = [conn.closed for conn in conns]
+        if waits:
+            _, late = await asyncio.wait(waits, timeout=self.flow.linger_s)
+            for conn in conns:
+                if not conn.closed.done():
+                    conn.abort()
+            if late:
+                await asyncio.wait(late, timeout=1.0)
+        if self._listener is not None:
+            with contextlib.suppress(Exception):
+                await asyncio.wait_for(self._listener.wait_closed(), 1.0)
+
+
+def _extensions(wanted: frozenset[str], store: HistoryStore) -> frozenset[str]:
+    """Advertise `durable` only with a durable store (OA-WB-9)."""
+    return wanted | {"durable"} if store.durable else wanted - {"durable"}
+
+
+def _config(options: ServerOptions) -> ServerConfig:
+    if options.config is not None:
+        return options.config
+    if options.config_path is not None:
+        return load_config(options.config_path)  # raises ConfigError
+    return default_config()
+
+
+async def start_server(options: ServerOptions | None = None) -> Server:
+    """Start a server and return it listening (raises ConfigError, StoreSpecError, OSError)."""
+    options = options or ServerOptions()
+    config = _config(options)
+    store = open_store(options.store)
+    server = Server(options, config, store)
+    try:
+        await server._listen()
+    except BaseException:
+        if server._listener is not None:
+            server._listener.close()
+        store.close()
+        raise
+    return server

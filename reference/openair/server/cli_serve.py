@@ -1,0 +1,93 @@
+"""`openair serve`: run the reference whiteboard server in the foreground."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import signal
+import sys
+
+import click
+
+from openair.server.app import ServerOptions, start_server
+from openair.server.config import ConfigError
+from openair.server.store import StoreSpecError
+
+__all__ = ["serve"]
+
+_LEVELS = ("debug", "info", "warning", "error")
+
+
+async def _run(options: ServerOptions) -> None:
+    """Start, announce readiness on stdout, and stop on SIGINT or SIGTERM."""
+    server = await start_server(options)
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        with contextlib.suppress(NotImplementedError):  # not on every platform
+            loop.add_signal_handler(sig, lambda: loop.create_task(server.stop()))
+    boards = ", ".join(server.whiteboards)
+    click.echo(f"listening on {server.host}:{server.port} (whiteboards: {boards})")
+    sys.stdout.flush()
+    await server.serve_forever()
+
+
+@click.command("serve")
+@click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on.")
+@click.option(
+    "--port",
+    default=10000,
+    show_default=True,
+    type=click.IntRange(0, 65535),
+    help="Main port (0: any free port; the line printed at start names it).",
+)
+@click.option(
+    "--config",
+    "config_path",
+    type=click.Path(dir_okay=False),
+    help="psySpec configuration file (default: AIRCentral, WB1, WB2).",
+)
+@click.option(
+    "--store",
+    default="memory",
+    show_default=True,
+    help="Whiteboard history: 'memory', or 'sqlite:PATH' (durable).",
+)
+@click.option(
+    "--log-level",
+    default="info",
+    show_default=True,
+    type=click.Choice(_LEVELS, case_sensitive=False),
+    help="Log level (stderr).",
+)
+def serve(host: str, port: int, config_path: str | None, store: str, log_level: str) -> None:
+    """Run the OpenAIR reference server until SIGINT or SIGTERM.
+
+    When it is ready it prints one line, `listening on HOST:PORT (whiteboards: …)`, on stdout;
+    log lines (`event=NAME key=value …`) go to stderr. On a signal it shuts down gracefully:
+    new requests get SHUTTING_DOWN, decided deliveries are attempted for up to 5 s, the store
+    is closed.
+
+    \b
+    Exit codes:
+      0  stopped by SIGINT or SIGTERM after a graceful shutdown
+      1  could not listen (address in use, permission) or could not open the store
+      2  usage error, or an invalid configuration file (the message names file and line)
+    """
+    logging.basicConfig(
+        level=log_level.upper(), stream=sys.stderr, format="%(asctime)s %(levelname)s %(message)s"
+    )
+    options = ServerOptions(host=host, port=port, config_path=config_path, store=store)
+    try:
+        asyncio.run(_run(options))
+    except ConfigError as exc:
+        click.echo(f"openair serve: {exc}", err=True)
+        sys.exit(2)
+    except StoreSpecError as exc:
+        click.echo(f"openair serve: {exc}", err=True)
+        sys.exit(2)
+    except OSError as exc:
+        click.echo(f"openair serve: cannot start: {exc}", err=True)
+        sys.exit(1)
+    except KeyboardInterrupt:  # a second Ctrl-C during shutdown
+        sys.exit(0)

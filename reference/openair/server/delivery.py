@@ -1,0 +1,411 @@
+"""Delivery of queued messages to modules: one task per module (spec 6.6, section 10).
+
+Each module has a bounded `DeliveryQueue` (OA-DELIV-8/9) and a task that takes eligible items in
+priority order (OA-PRIO-1/2) and sends them over the module's callback connection when it has
+one, else over a connection the server opens to the module's listening port and reuses
+(OA-DELIV-1). A legacy module gets one delivery at a time, the next only after the
+acknowledgement of the previous one; a module that declared `pipelining` gets up to
+`max-in-flight` (OA-DELIV-5). A delivery that fails (no connection, a closed connection, no
+acknowledgement within the delivery deadline) is retried at most twice and then abandoned and
+counted (OA-DELIV-7, OA-DELIV-11); a reply other than the acknowledgement is counted and not
+retried. Every module has its own task, queue and connection, so a slow or dead module never
+delays another module or the acknowledgement of a post (OA-DELIV-6).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import heapq
+import logging
+import time
+from collections.abc import Awaitable, Callable, Coroutine
+from dataclasses import dataclass, field, replace
+from typing import Protocol
+
+from openair.errors import ConnectionClosedError, OpenAIRError
+from openair.message import Message
+from openair.server.protocol import ServerConnection
+from openair.server.queues import DeliveryQueue, QueueItem
+from openair.server.router import Delivery, ModuleInfo
+
+__all__ = ["DeliveryHost", "DeliveryOptions", "Dispatcher", "ModuleCounters"]
+
+log = logging.getLogger("openair.server")
+
+#: The acknowledgement each kind of delivery expects (OA-DELIV-4).
+_ACK_FOR = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class DeliveryOptions:
+    """Timing of deliveries: acknowledgement deadline, retries and their back-off (seconds)."""
+
+    deadline_s: float = 10.0  # OA-DELIV-11
+    retries: int = 2  # OA-DELIV-7
+    backoff_s: tuple[float, ...] = (0.05, 0.25)
+    connect_timeout_s: float = 5.0
+
+
+class DeliveryHost(Protocol):
+    """What the dispatcher needs from the server."""
+
+    def module_info(self, name: str) -> ModuleInfo | None:
+        """The router's view of a module (None when it is unknown)."""
+
+    def connection(self, conn_id: int) -> ServerConnection | None:
+        """The open connection with this id, if any."""
+
+    def connect(self, module: str, address: str, port: int) -> Awaitable[ServerConnection]:
+        """Open an OUTBOUND connection to a module's listening port."""
+
+    def delivered(self, module: str, count: int) -> None:
+        """Report acknowledged deliveries (for the router's counters)."""
+
+    def dropped(self, module: str, count: int, reason: str) -> None:
+        """Report deliveries dropped (QUEUE_OVERFLOW) or abandoned (DELIVERY_FAILED)."""
+
+
+@dataclass(slots=True)
+class ModuleCounters:
+    """What one module's delivery task did."""
+
+    delivered: int = 0
+    failed: int = 0  # DELIVERY_FAILED: abandoned after the retries (or at shutdown)
+    refused: int = 0  # answered with something other than the acknowledgement
+    retried: int = 0
+
+
+@dataclass(order=True, slots=True)
+class _Attempt:
+    """A queue item on its way out; ordered by arrival so retries keep their order."""
+
+    seq: int
+    item: QueueItem = field(compare=False)
+    tries: int = field(default=0, compare=False)
+
+
+class ModuleDelivery:
+    """The queue and delivery task of one module."""
+
+    def __init__(self, name: str, dispatcher: Dispatcher) -> None:
+        self.name = name
+        self._d = dispatcher
+        self.queue = DeliveryQueue(capacity=dispatcher.capacity)
+        self.counters = ModuleCounters()
+        self._retry: list[_Attempt] = []
+        self._in_flight: set[asyncio.Task[None]] = set()
+        self._wake = asyncio.Event()
+        self._room = asyncio.Event()
+        self._outbound: ServerConnection | None = None
+        self._outbound_at = ("", 0)
+        self._sending = 0  # 1 while an attempt is between the queue and the connection
+        self.task = asyncio.get_running_loop().create_task(self._run(), name=f"deliver {name}")
+
+    @property
+    def pending(self) -> int:
+        """Items queued, waiting for a retry or in flight."""
+        return len(self.queue) + len(self._retry) + len(self._in_flight) + self._sending
+
+    def push(self, delivery: Delivery) -> QueueItem | None:
+        """Queue one delivery; return the item dropped for room, if any (OA-DELIV-9)."""
+        victim = self.queue.push(
+            delivery.message,
+            priority=delivery.priority,
+            wb_priority=delivery.wb_priority,
+            due_ns=delivery.due_ns,
+        )
+        self._wake.set()
+        return victim
+
+    def poke(self) -> None:
+        """Look again for a path (the module bound or opened a callback connection)."""
+        self._wake.set()
+
+    # -- the task -----------------------------------------------------------------------------
+
+    async def _run(self) -> None:
+        while True:
+            await self._wait_for_room()
+            attempt = await self._next()
+            self._sending = 1
+            try:
+                conn = await self._path()
+                if conn is None:
+                    self._failed(attempt, "no connection to the module")
+                    continue
+                sent = self._wire_form(attempt.item.message)
+                self._spawn(self._await_ack(attempt, conn, sent, conn.send_request(sent)))
+            finally:
+                self._sending = 0
+                self._d.idle_check()
+
+    def _spawn(self, coro: Coroutine[object, object, None]) -> None:
+        """Run one attempt's follow-up; it holds a slot of the window until it ends."""
+        task = asyncio.get_running_loop().create_task(coro)
+        self._in_flight.add(task)
+        task.add_done_callback(self._finished)
+
+    def _wire_form(self, msg: Message) -> Message:
+        """Drop `noreply` towards a module that did not declare it (OA-GEN-2, OA-MSG-15).
+
+        A legacy module would acknowledge it anyway, and that reply would then be paired with
+        the wrong delivery.
+        """
+        if msg.noreply:
+            info = self._d.host.module_info(self.name)
+            if info is None or "noreply" not in info.extensions:
+                return replace(msg, noreply=False)
+        return msg
+
+    def _finished(self, task: asyncio.Task[None]) -> None:
+        self._in_flight.discard(task)
+        self._room.set()
+        self._d.idle_check()
+
+    def _window(self) -> int:
+        """One delivery at a time for a legacy module, more under `pipelining` (OA-DELIV-5)."""
+        info = self._d.host.module_info(self.name)
+        if info is not None and "pipelining" in info.extensions:
+            return self._d.max_in_flight
+        return 1
+
+    async def _wait_for_room(self) -> None:
+        while len(self._in_flight) >= self._window():
+            self._room.clear()
+            await self._room.wait()
+
+    async def _next(self) -> _Attempt:
+        """Return the next attempt: a retry first, else the first eligible queued item."""
+        while True:
+            self._wake.clear()
+            if self._retry:
+                return heapq.heappop(self._retry)
+            now = time.time_ns()
+            if self._has_path():
+                item = self.queue.pop(now)
+                if item is not None:
+                    return _Attempt(seq=item.seq, item=item)
+            due = self.queue.next_due()
+            timeout = None if due is None else max(due - now, 0) / 1e9
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._wake.wait(), timeout)
+
+    def _has_path(self) -> bool:
+        """Whether the module can be reached at all (else its deliveries wait, bounded)."""
+        info = self._d.host.module_info(self.name)
+        return info is not None and (info.callback is not None or info.port > 0)
+
+    async def _path(self) -> ServerConnection | None:
+        """Return the callback connection, else a connection to the listening port (OA-DELIV-1)."""
+        info = self._d.host.module_info(self.name)
+        if info is None:
+            return None
+        if info.callback is not None:
+            conn = self._d.host.connection(info.callback)
+            if conn is not None and not conn.is_closing:
+                return conn
+        if info.port <= 0:
+            return None
+        address = info.address or self._primary_host(info)
+        out = self._outbound
+        if out is not None and not out.is_closing and self._outbound_at == (address, info.port):
+            return out
+        if out is not None:
+            out.close()  # the module bound a new port (takeover, OA-SESS-6)
+        try:
+            connect = self._d.host.connect(self.name, address, info.port)
+            out = await asyncio.wait_for(connect, self._d.options.connect_timeout_s)
+        except (OSError, TimeoutError) as exc:
+            log.info(
+                "event=connect_failed module=%s address=%s port=%d detail=%r",
+                self.name,
+                address,
+                info.port,
+                str(exc),
+            )
+            return None
+        self._outbound, self._outbound_at = out, (address, info.port)
+        return out
+
+    def _primary_host(self, info: ModuleInfo) -> str:
+        """The address the module's primary connection came from (OA-DELIV-1)."""
+        conn = self._d.host.connection(info.conn) if info.conn is not None else None
+        return conn.peer[0] if conn is not None and conn.peer[0] else "127.0.0.1"
+
+    async def _await_ack(
+        self,
+        attempt: _Attempt,
+        conn: ServerConnection,
+        msg: Message,
+        future: asyncio.Future[Message],
+    ) -> None:
+        """Wait for the acknowledgement (OA-DELIV-4) within the deadline (OA-DELIV-11)."""
+        try:
+            reply = await asyncio.wait_for(future, self._d.options.deadline_s)
+        except TimeoutError:
+            conn.close()  # OA-DELIV-11: a late acknowledgement could no longer be paired
+            await self._retry_later(attempt, "no acknowledgement before the deadline")
+            return
+        except ConnectionClosedError:
+            await self._retry_later(attempt, "the connection closed before the acknowledgement")
+            return
+        except OpenAIRError as exc:  # an unreadable reply: counted, not retried (OA-DELIV-7)
+            self._refused(msg, exc.wire_text())
+            return
+        if msg.noreply or reply.type == _ACK_FOR.get(msg.type, "RECEIVE_ACCEPT"):
+            self.counters.delivered += 1
+            self._d.host.delivered(self.name, 1)
+        else:
+            self._refused(msg, f"{reply.type}: {reply.content[:200]}")
+
+    def _refused(self, msg: Message, detail: str) -> None:
+        self.counters.refused += 1
+        log.info("event=delivery_refused module=%s type=%s detail=%r", self.name, msg.type, detail)
+
+    async def _retry_later(self, attempt: _Attempt, reason: str) -> None:
+        """Queue a retry after a back-off, or abandon the delivery (OA-DELIV-7)."""
+        if attempt.tries >= self._d.options.retries:
+            self._failed(attempt, reason)
+            return
+        backoff = self._d.options.backoff_s
+        await asyncio.sleep(backoff[min(attempt.tries, len(backoff) - 1)] if backoff else 0)
+        attempt.tries += 1
+        self.counters.retried += 1
+        heapq.heappush(self._retry, attempt)
+        self._wake.set()
+
+    def _failed(self, attempt: _Attempt, reason: str) -> None:
+        """Retry a failed attempt, or abandon and count it after the last retry."""
+        if attempt.tries < self._d.options.retries:
+            self._spawn(self._retry_later(attempt, reason))
+            return
+        self.counters.failed += 1
+        self._d.host.dropped(self.name, 1, "DELIVERY_FAILED")
+        log.warning(
+            "event=delivery_failed module=%s type=%s tries=%d detail=%r",
+            self.name,
+            attempt.item.message.type,
+            attempt.tries + 1,
+            reason,
+        )
+
+    # -- ending ---------------------------------------------------------------------------------
+
+    async def stop(self) -> int:
+        """Cancel the task and everything in flight; return how many deliveries were left."""
+        left = self.pending
+        tasks = [self.task, *self._in_flight]
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+        self.queue.clear()
+        self._retry.clear()
+        if self._outbound is not None:
+            self._outbound.close()
+        return left
+
+
+class Dispatcher:
+    """Every module's delivery queue and task."""
+
+    def __init__(
+        self,
+        host: DeliveryHost,
+        *,
+        capacity: int,
+        max_in_flight: int,
+        options: DeliveryOptions | None = None,
+    ) -> None:
+        self.host = host
+        self.capacity = capacity
+        self.max_in_flight = max_in_flight
+        self.options = options or DeliveryOptions()
+        self.modules: dict[str, ModuleDelivery] = {}
+        self._idle_waiters: list[asyncio.Future[None]] = []
+        self.on_drop: Callable[[str, QueueItem], None] | None = None
+
+    def push(self, delivery: Delivery) -> None:
+        """Queue a delivery for its module, dropping per OA-DELIV-9 when the queue is full."""
+        md = self.modules.get(delivery.module)
+        if md is None:
+            md = self.modules[delivery.module] = ModuleDelivery(delivery.module, self)
+        victim = md.push(delivery)
+        if victim is not None:
+            self.host.dropped(delivery.module, 1, "QUEUE_OVERFLOW")
+            dropped = md.queue.counters.dropped
+            if dropped == 1 or dropped % 1000 == 0:
+                log.warning(
+                    "event=overflow_drop module=%s dropped_total=%d priority=%g",
+                    delivery.module,
+                    dropped,
+                    victim.priority,
+                )
+
+    def poke(self, module: str) -> None:
+        """Tell a module's task that its paths may have changed."""
+        md = self.modules.get(module)
+        if md is not None:
+            md.poke()
+
+    async def discard(self, module: str) -> int:
+        """Drop a module's queue and task (its session ended, OA-SESS-15); return the count."""
+        md = self.modules.pop(module, None)
+        if md is None:
+            return 0
+        left = await md.stop()
+        log.info("event=queue_discarded module=%s count=%d", module, left)
+        self.idle_check()
+        return left
+
+    @property
+    def pending(self) -> int:
+        """Deliveries not yet finished, over all modules."""
+        return sum(md.pending for md in self.modules.values())
+
+    def idle_check(self) -> None:
+        """Wake `drained()` waiters when nothing is eligible or in flight any more."""
+        if not self._idle_waiters or self._busy():
+            return
+        for waiter in self._idle_waiters:
+            if not waiter.done():
+                waiter.set_result(None)
+        self._idle_waiters.clear()
+
+    def _busy(self) -> bool:
+        return any(md.pending for md in self.modules.values())
+
+    async def drained(self) -> None:
+        """Return once every queue is empty and nothing is in flight (OA-SESS-24's flush)."""
+        while self._busy():
+            waiter = asyncio.get_running_loop().create_future()
+            self._idle_waiters.append(waiter)
+            await waiter
+
+    async def stop(self) -> int:
+        """Stop every task; count what was left as DELIVERY_FAILED (OA-SESS-24)."""
+        left = 0
+        for name, md in list(self.modules.items()):
+            n = await md.stop()
+            if n:
+                md.counters.failed += n
+                self.host.dropped(name, n, "DELIVERY_FAILED")
+            left += n
+        self.modules.clear()
+        return left
+
+    def counters(self) -> dict[str, dict[str, int]]:
+        """Per module: queue depth, items in, delivered, dropped, failed, refused, retried."""
+        return {
+            name: {
+                "depth": len(md.queue),
+                "in": md.queue.counters.pushed,
+                "delivered": md.counters.delivered,
+                "dropped": md.queue.counters.dropped,
+                "failed": md.counters.failed,
+                "refused": md.counters.refused,
+                "retried": md.counters.retried,
+                "discarded": md.queue.counters.discarded,
+            }
+            for name, md in self.modules.items()
+        }

@@ -1,0 +1,457 @@
+"""One asyncio `Protocol` per server connection: frames in, router outcomes out (spec 2, 6.1).
+
+Frame first, then parse (OA-FRAME-*): bytes go through a `FrameReader`; only a complete frame is
+decoded. A decode error is answered `RECEIVE_ERROR` with `NAME: detail` and the connection stays
+usable (OA-ERR-2, OA-ERR-3); a framing error closes this connection only (OA-FRAME-6/7/9,
+OA-ERR-4), after a `RECEIVE_ERROR` where the error table names one and the server is the
+responder.
+
+A connection has one of three roles (OA-SESS-28):
+
+* RESPONDER — a client opened it; every frame is a request, handed to the router with the time
+  it arrived (read as the first act on receipt, OA-TIME-3) and answered in order (OA-SESS-2).
+* CALLBACK — a module opened it and sent a `Receive` frame (OA-SESS-7); the server is the
+  requester and every frame is a reply to a delivery, paired with the oldest one (OA-SESS-33).
+* OUTBOUND — the server opened it to a module's listening port (OA-DELIV-1); as CALLBACK.
+
+Flow control follows uvicorn's helper: when the transport's write buffer passes its high-water
+mark the connection stops reading, and reads again under the low-water mark; a peer that does not
+read at all is cut off when the buffer passes a hard cap, so it can never make the server buffer
+without bound.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import enum
+import logging
+import time
+from collections import deque
+from dataclasses import dataclass
+from typing import Protocol
+
+from openair.codec import from_frame, to_frame
+from openair.errors import (
+    ApiMisuseError,
+    ConnectionClosedError,
+    FrameTruncatedError,
+    LimitExceededError,
+    OpenAIRError,
+    RemoteProtocolError,
+)
+from openair.framing import Frame, FrameReader, FrameTag, encode_frame
+from openair.message import Message
+from openair.server.config import ServerLimits
+from openair.server.router import Outcome
+from openair.times import AirTime
+from openair.xmlsafe import XmlLimits, local_name, parse_xml
+
+__all__ = ["ConnectionHost", "FlowLimits", "Role", "ServerConnection"]
+
+log = logging.getLogger("openair.server")
+
+#: Requests a module may send on a connection where the server is the requester; answered, not
+#: paired (a tolerance: OA-SESS-28 forbids them, but answering costs nothing, OA-SESS-10/KEEP-2).
+_ANSWERS = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
+
+
+class Role(enum.Enum):
+    """Which side of request/reply pairing the server is on a connection (OA-SESS-28)."""
+
+    RESPONDER = "responder"
+    CALLBACK = "callback"
+    OUTBOUND = "outbound"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class FlowLimits:
+    """Write-buffer marks of one connection (bytes), and the idle time before KEEPALIVE (s)."""
+
+    high_water: int = 1 << 20
+    low_water: int = 1 << 18
+    hard_cap: int = 96 << 20
+    keepalive_s: float = 60.0  # OA-KEEP-1
+    linger_s: float = 2.0
+
+
+class ConnectionHost(Protocol):
+    """What a connection needs from the server that owns it."""
+
+    limits: ServerLimits
+    flow: FlowLimits
+
+    def connection_opened(self, conn: ServerConnection) -> int:
+        """Register a new inbound connection and return its id."""
+
+    def handle(
+        self, conn: ServerConnection, msg: Message, *, tag: FrameTag, received_ns: int
+    ) -> Outcome:
+        """Hand one request to the router and act on everything but the replies."""
+
+    def callback_opened(self, conn: ServerConnection, module: str) -> None:
+        """Note that `conn` became the callback connection of `module` (OA-SESS-7)."""
+
+    def connection_lost(self, conn: ServerConnection) -> None:
+        """Forget a closed connection."""
+
+
+@dataclass(slots=True)
+class _Pending:
+    """A request the server sent on a requester connection and whose reply it awaits."""
+
+    id: str
+    type: str
+    future: asyncio.Future[Message]
+
+
+class ServerConnection(asyncio.Protocol):
+    """One TCP connection of the server, in any of the three roles."""
+
+    def __init__(
+        self, host: ConnectionHost, role: Role = Role.RESPONDER, *, name: str = "CNS"
+    ) -> None:
+        self.host = host
+        self.role = role
+        self.name = name  # `from` of the replies the adapter makes itself
+        self.conn_id = -1
+        self.module = ""  # the module this CALLBACK or OUTBOUND connection serves
+        self.peer = ("", 0)
+        self.transport: asyncio.Transport | None = None
+        self.closed = asyncio.get_running_loop().create_future()
+        self._reader = FrameReader(host.limits.frame_limits())
+        self._xml_limits: XmlLimits = host.limits.xml_limits()
+        self._pending: deque[_Pending] = deque()
+        self._closing = False
+        self._reading_paused = False
+        self._written = 0
+        self._unflushed: deque[int] = deque()  # end offsets of replies not yet flushed
+        self._last_byte = time.monotonic()
+        self.last_traffic = self._last_byte
+        self._deadline: asyncio.TimerHandle | None = None
+        self._keepalive: asyncio.TimerHandle | None = None
+        self.frames_in = 0
+
+    # -- transport callbacks ------------------------------------------------------------------
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self.transport = transport
+        peer = transport.get_extra_info("peername")
+        self.peer = (str(peer[0]), int(peer[1])) if peer else ("", 0)
+        # The transport's own marks drive pause_writing/resume_writing (the flow-control helper).
+        transport.set_write_buffer_limits(self.host.flow.high_water, self.host.flow.low_water)
+        if self.role is Role.RESPONDER:
+            self.conn_id = self.host.connection_opened(self)
+        else:
+            self._arm_keepalive()
+
+    def data_received(self, data: bytes) -> None:
+        received_ns = time.time_ns()  # OA-TIME-3: the first act on receipt
+        if self._closing:
+            return  # OA-FRAME-9: nothing after a failure or a close is processed
+        self._last_byte = self.last_traffic = time.monotonic()
+        try:
+            self._reader.feed(data)
+            while not self._closing and (frame := self._reader.next_frame()) is not None:
+                self.frames_in += 1
+                self._on_frame(frame, received_ns)
+        except RemoteProtocolError as exc:
+            self._framing_error(exc)
+            return
+        self._arm_deadline()
+
+    def eof_received(self) -> bool | None:
+        if not self._closing and self._reader.in_frame:
+            self._log_error(FrameTruncatedError("the peer closed inside a frame"))  # OA-FRAME-8
+        return None  # close the transport
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self._closing = True
+        for handle in (self._deadline, self._keepalive):
+            if handle is not None:
+                handle.cancel()
+        reason = f"connection lost: {exc}" if exc else "connection closed"
+        while self._pending:
+            pending = self._pending.popleft()
+            if not pending.future.done():
+                pending.future.set_exception(ConnectionClosedError(reason))
+        if self.role is not Role.OUTBOUND:
+            self.host.connection_lost(self)
+        if not self.closed.done():
+            self.closed.set_result(None)
+        log.debug(
+            "event=close conn=%d role=%s peer=%s:%d", self.conn_id, self.role.value, *self.peer
+        )
+
+    def pause_writing(self) -> None:
+        # The peer reads slower than we answer: stop reading its requests until it catches up.
+        if self.transport is not None and not self._reading_paused:
+            self._reading_paused = True
+            self.transport.pause_reading()
+
+    def resume_writing(self) -> None:
+        if self.transport is not None and self._reading_paused and not self._closing:
+            self._reading_paused = False
+            self.transport.resume_reading()
+
+    # -- frames ---------------------------------------------------------------------------------
+
+    def _on_frame(self, frame: Frame, received_ns: int) -> None:
+        """Act on one complete frame according to the connection's role."""
+        if self.role is Role.RESPONDER:
+            self._on_request(frame, received_ns)
+        else:
+            self._on_reply(frame)
+
+    def _on_request(self, frame: Frame, received_ns: int) -> None:
+        """Decode a request, hand it to the router and send its replies in order (OA-SESS-2)."""
+        if frame.tag is FrameTag.BINARY:
+            # OA-STREAM-11: a BinaryM frame on the main port names no stream.
+            self._send(self._error_reply("UNKNOWN_COMMAND", "Offending cmd: BinaryOnly"))
+            return
+        try:
+            msg = from_frame(frame, self._xml_limits)
+        except RemoteProtocolError as exc:
+            self._log_error(exc)
+            ident, sender = _salvage(frame.xml, self._xml_limits)
+            reply = self._error_reply("RECEIVE_ERROR", exc.wire_text(), ident, sender)
+            self._send(reply)  # OA-ERR-3: the connection stays usable
+            return
+        if self._in_flight() >= self.host.limits.max_in_flight:
+            exc2 = LimitExceededError(f"more than {self.host.limits.max_in_flight} in flight")
+            self._send(self._error_reply("RECEIVE_ERROR", exc2.wire_text(), msg.id, msg.sender))
+            return  # OA-LIM-5: answered in its turn
+        outcome = self.host.handle(self, msg, tag=frame.tag, received_ns=received_ns)
+        for reply in outcome.replies:
+            self._send(reply)
+        if outcome.close_this:
+            self.close()
+        elif frame.tag is FrameTag.RECEIVE and _is_notification(msg, outcome):
+            self.role = Role.CALLBACK  # OA-SESS-7, OA-SESS-28: the server is the requester now
+            self.module = msg.sender
+            self.host.callback_opened(self, msg.sender)
+            self._arm_keepalive()
+
+    def _on_reply(self, frame: Frame) -> None:
+        """Pair a reply with the oldest delivery awaiting one (OA-SESS-33)."""
+        try:
+            msg = from_frame(frame, self._xml_limits)
+        except RemoteProtocolError as exc:
+            self._log_error(exc)
+            self._resolve(None, exc)  # an unreadable reply is still the reply (OA-SESS-33)
+            return
+        answer = _ANSWERS.get(msg.type)
+        if answer is not None and not msg.isresponse:
+            self._send(msg.reply(answer, sender=self.name))  # OA-SESS-10, OA-KEEP-2
+            return
+        self._resolve(msg, None)
+
+    def _resolve(self, msg: Message | None, error: Exception | None) -> None:
+        """Hand a reply (or its decode error) to the oldest pending request."""
+        # OA-KEEP-3: an unanswered KEEPALIVE never blocks the pairing of later replies.
+        keepalive_reply = msg is not None and msg.type == "KEEPALIVESUCCESS"
+        while self._pending and self._pending[0].type == "KEEPALIVE" and not keepalive_reply:
+            self._pending.popleft().future.cancel()
+        if not self._pending:
+            log.warning(
+                "event=protocol_error conn=%d module=%s detail=%s",
+                self.conn_id,
+                self.module,
+                "reply with no request in flight",
+            )
+            return
+        future = self._pending.popleft().future
+        if future.done():
+            return
+        if error is not None:
+            future.set_exception(error)
+        elif msg is not None:
+            future.set_result(msg)
+
+    # -- sending --------------------------------------------------------------------------------
+
+    def _error_reply(self, kind: str, text: str, ident: str = "", sender: str = "") -> Message:
+        """Build a reply the adapter makes itself (the router never saw the request)."""
+        now = AirTime.from_ns(time.time_ns())
+        return Message(
+            type=kind, sender=self.name, to=sender, isresponse=ident, content=text, posted=now
+        )
+
+    def _send(self, msg: Message, tag: FrameTag = FrameTag.MESSAGE) -> bool:
+        """Write one message; return False when the connection is closing or was cut off."""
+        if self._closing or self.transport is None:
+            return False
+        try:
+            data = encode_frame(to_frame(msg, tag))
+        except ApiMisuseError as exc:  # OA-MSG-14: content XML cannot carry
+            log.error("event=encode_error conn=%d type=%s detail=%s", self.conn_id, msg.type, exc)
+            data = encode_frame(to_frame(self._error_reply("RECEIVE_ERROR", "", msg.isresponse)))
+        self.transport.write(data)
+        self._written += len(data)
+        self.last_traffic = time.monotonic()
+        if self.transport.get_write_buffer_size() > self.host.flow.hard_cap:
+            log.warning(
+                "event=cut_off conn=%d peer=%s:%d detail=%s",
+                self.conn_id,
+                *self.peer,
+                "write buffer over the hard cap",
+            )
+            self.abort()
+            return False
+        if self.role is Role.RESPONDER:
+            self._unflushed.append(self._written)
+        return True
+
+    def _in_flight(self) -> int:
+        """Count the replies still waiting in the write buffer (OA-LIM-5's requests in flight)."""
+        if self.transport is None:
+            return 0
+        flushed = self._written - self.transport.get_write_buffer_size()
+        while self._unflushed and self._unflushed[0] <= flushed:
+            self._unflushed.popleft()
+        return len(self._unflushed)
+
+    def send_request(self, msg: Message) -> asyncio.Future[Message]:
+        """Send a request on a CALLBACK or OUTBOUND connection; return its reply's future.
+
+        A `noreply` message (only sent to a module that declared `noreply`) expects no reply:
+        its future is already resolved with the message itself (OA-MSG-15).
+        """
+        if self.role is Role.RESPONDER:
+            raise ApiMisuseError("the server is not the requester on this connection")
+        future: asyncio.Future[Message] = asyncio.get_running_loop().create_future()
+        if self._closing:
+            future.set_exception(ConnectionClosedError("the connection is closed"))
+            return future
+        if not msg.noreply:
+            self._pending.append(_Pending(id=msg.id, type=msg.type, future=future))
+        if not self._send(msg):
+            if not future.done():
+                future.set_exception(ConnectionClosedError("the connection was cut off"))
+        elif msg.noreply:
+            future.set_result(msg)
+        return future
+
+    @property
+    def in_flight(self) -> int:
+        """How many requests sent on this connection await their reply."""
+        return len(self._pending)
+
+    @property
+    def is_closing(self) -> bool:
+        """True once the connection is failed, closing or closed."""
+        return self._closing
+
+    # -- timers ---------------------------------------------------------------------------------
+
+    def _arm_deadline(self) -> None:
+        """Watch for a frame that stops arriving (OA-FRAME-12)."""
+        if self._deadline is None and self._reader.in_frame and not self._closing:
+            delay = self.host.limits.frame_deadline_ms / 1000
+            self._deadline = asyncio.get_running_loop().call_later(delay, self._check_deadline)
+
+    def _check_deadline(self) -> None:
+        self._deadline = None
+        if self._closing or not self._reader.in_frame:
+            return
+        limit = self.host.limits.frame_deadline_ms / 1000
+        left = self._last_byte + limit - time.monotonic()
+        if left > 0:
+            self._deadline = asyncio.get_running_loop().call_later(left, self._check_deadline)
+            return
+        self._log_error(FrameTruncatedError(f"no byte of the frame for {limit:g} s"))
+        self.abort()  # OA-FRAME-12: the frame is discarded, the connection closed
+
+    def _arm_keepalive(self) -> None:
+        """Send KEEPALIVE after idle time on a connection where the server is the requester."""
+        delay = self.host.flow.keepalive_s
+        self._keepalive = asyncio.get_running_loop().call_later(delay, self._check_keepalive)
+
+    def _check_keepalive(self) -> None:
+        self._keepalive = None
+        if self._closing:
+            return
+        idle = time.monotonic() - self.last_traffic
+        if idle >= self.host.flow.keepalive_s and not self._pending:
+            now = AirTime.from_ns(time.time_ns())
+            future = self.send_request(Message(type="KEEPALIVE", posted=now))  # OA-KEEP-1
+            future.add_done_callback(_consume)
+            idle = 0.0
+        delay = max(self.host.flow.keepalive_s - idle, 0.001)
+        self._keepalive = asyncio.get_running_loop().call_later(delay, self._check_keepalive)
+
+    # -- closing --------------------------------------------------------------------------------
+
+    def _framing_error(self, exc: RemoteProtocolError) -> None:
+        """Answer where the table says so, then close this connection only (OA-FRAME-6/7/9)."""
+        self._log_error(exc)
+        if exc.reply and self.role is Role.RESPONDER:
+            self._send(self._error_reply(exc.reply, exc.wire_text()))  # OA-FRAME-7, OA-FRAME-4
+            self.close()
+        else:
+            self.abort()  # OA-FRAME-6: at once, without a reply
+
+    def close(self, *, linger: bool = True) -> None:
+        """Stop processing, flush what was written, and end the connection.
+
+        With `linger` the write side is shut first so the peer reads every reply before the end
+        of stream, and bytes the peer still sends are discarded for at most `linger_s` (a
+        lingering close: closing with unread bytes resets the connection, which can destroy the
+        last reply). Without it the transport closes as soon as its buffer is flushed.
+        """
+        if self.transport is None:
+            return
+        if self._closing:
+            if not linger:
+                self.transport.close()  # end a lingering close now (at shutdown)
+            return
+        self._closing = True
+        self.resume_writing()
+        transport = self.transport
+        if linger and transport.can_write_eof():
+            transport.write_eof()
+            transport.resume_reading()
+            loop = asyncio.get_running_loop()
+            loop.call_later(self.host.flow.linger_s, transport.abort)
+        else:
+            transport.close()
+
+    def abort(self) -> None:
+        """End the connection at once, dropping anything unsent."""
+        self._closing = True
+        if self.transport is not None:
+            self.transport.abort()
+
+    def _log_error(self, exc: OpenAIRError) -> None:
+        log.info(
+            "event=protocol_error conn=%d role=%s peer=%s:%d error=%s detail=%r",
+            self.conn_id,
+            self.role.value,
+            *self.peer,
+            exc.name,
+            exc.detail,
+        )
+
+
+def _consume(future: asyncio.Future[Message]) -> None:
+    """Retrieve a KEEPALIVE's outcome so that asyncio never reports it as unretrieved."""
+    if not future.cancelled():
+        future.exception()
+
+
+def _is_notification(msg: Message, outcome: Outcome) -> bool:
+    """Whether a `Receive` frame made its connection a callback connection (OA-SESS-7)."""
+    return msg.type == "RECEIVE_NAME_NOTIFICATION" and not outcome.replies
+
+
+def _salvage(xml: bytes, limits: XmlLimits) -> tuple[str, str]:
+    """Return the `id` and `from` of a message that failed to decode, when they can be read.
+
+    OA-SESS-1: the error reply's `isresponse` is the request's id, empty when unreadable.
+    """
+    with contextlib.suppress(OpenAIRError, ValueError):
+        root = parse_xml(xml, limits)
+        found = {local_name(el): (el.text or "").strip() for el in root}
+        return found.get("id", ""), found.get("from", "")
+    return "", ""

@@ -1,0 +1,98 @@
+"""AIR.Retrieve and AIR.Retrieves (spec 9), and the retrieves of a registration (OA-WAKE-7).
+
+The criteria themselves are evaluated by `Whiteboard.retrieve`; this module reads the request,
+chooses the whiteboard of each retrieve (OA-RET-2) and builds the reply (OA-RET-7, OA-RET-12,
+OA-RET-15).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+from openair.content import RetrieveSpec
+from openair.errors import (
+    LimitExceededError,
+    OpenAIRError,
+    RetrieveInvalidError,
+    WhiteboardUnknownError,
+)
+from openair.message import Message
+from openair.objects import encode_message_collection, parse_content
+from openair.registration import parse_retrieve_element, parse_retrieves
+from openair.server.commands import error_reply, reply
+from openair.server.whiteboard import Whiteboard
+from openair.xmlsafe import local_name
+
+__all__ = ["RETRIEVE", "RETRIEVES", "answer_retrieve", "parse_request", "registration_results"]
+
+RETRIEVE = "AIR.Retrieve"
+RETRIEVES = "AIR.Retrieves"
+# The envelope around the collection in a reply: type, ids, names and times; generous.
+_ENVELOPE_ALLOWANCE = 1024
+
+
+def parse_request(msg: Message) -> tuple[RetrieveSpec, ...]:
+    """Read the retrieves of an AIR.Retrieve (one `<retrieve>`) or AIR.Retrieves (`<retrieves>`).
+
+    Text content is read as the XML it spells (OA-RET-14). RETRIEVE_INVALID for empty or
+    unparsable content or the wrong element (OA-RET-10); PATTERN_INVALID for a bad `type`.
+    """
+    wanted = "retrieves" if msg.type == RETRIEVES else "retrieve"
+    roots = parse_content(msg.content, RetrieveInvalidError)
+    if len(roots) != 1 or local_name(roots[0]) != wanted:  # OA-RET-10
+        found = ", ".join(f"<{local_name(r)}>" for r in roots) or "empty content"
+        raise RetrieveInvalidError(f"{msg.type} needs one <{wanted}>, found {found}")
+    if wanted == "retrieve":
+        return (parse_retrieve_element(roots[0]),)
+    return parse_retrieves(msg.content)
+
+
+def answer_retrieve(
+    msg: Message,
+    addressee: Whiteboard,
+    whiteboards: Mapping[str, Whiteboard],
+    *,
+    now_ns: int,
+    max_xml: int,
+) -> Message:
+    """Answer an AIR.Retrieve / AIR.Retrieves sent to `addressee` (spec 9.1–9.4)."""
+    base = RETRIEVES if msg.type == RETRIEVES else RETRIEVE
+    try:
+        specs = parse_request(msg)
+        results: list[Message] = []
+        for spec in specs:  # OA-RET-12: concatenated in the order of the retrieves
+            board = whiteboards.get(spec.whiteboard or addressee.name)  # OA-RET-2, OA-WB-10
+            if board is None:
+                raise WhiteboardUnknownError(spec.whiteboard)  # OA-RET-11
+            results.extend(board.retrieve(spec, now_ns=now_ns))
+        content = encode_message_collection(results)  # OA-RET-7
+        if len(content.encode("utf-8")) + _ENVELOPE_ALLOWANCE > max_xml:  # OA-RET-15
+            raise LimitExceededError(
+                f"{len(results)} results exceed max-frame-xml ({max_xml} bytes)"
+            )
+    except OpenAIRError as err:
+        sender = addressee.name
+        return error_reply(msg, err, sender=sender, now_ns=now_ns, type_=f"{base}.Failed")
+    return reply(
+        msg, f"{base}.Success", sender=addressee.name, now_ns=now_ns, content=content, xml=True
+    )
+
+
+def registration_results(
+    retrieves: Sequence[RetrieveSpec],
+    trigger_board: Whiteboard,
+    whiteboards: Mapping[str, Whiteboard],
+    *,
+    now_ns: int,
+) -> list[Message]:
+    """Evaluate a woken module's retrieves at decision time (OA-WAKE-7, OA-WAKE-3).
+
+    A retrieve without `from` reads the whiteboard that stored the trigger message; one whose
+    `from` names no whiteboard adds nothing (OA-REG-9).
+    """
+    results: list[Message] = []
+    for spec in retrieves:
+        board = whiteboards.get(spec.whiteboard) if spec.whiteboard else trigger_board
+        if board is not None:
+            results.extend(board.retrieve(spec, now_ns=now_ns))
+    return results

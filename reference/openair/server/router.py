@@ -1,0 +1,614 @@
+"""The sans-I/O router of the reference server: sessions, whiteboards, registrations, wakeups.
+
+`Router.handle()` takes one decoded request and returns an `Outcome`: the replies to send on
+that connection (in order, OA-SESS-2), the deliveries to queue per module, and connections to
+close. No sockets, no clock reads: the adapter passes `received_ns` (when the frame arrived,
+OA-TIME-3) and `now_ns` (for replies' postedTime). Every component lives on the main port and
+is addressed by `to` (OA-SESS-9, OA-SESS-26).
+
+The post path is lean: one dict lookup to find the whiteboard, one cached type check, one store
+append, one `PatternIndex.match` over the triggers of every registration, and a wakeup per
+woken module (OA-WAKE-5).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+from openair.content import ANY_WHITEBOARD, Phase, Registration, TcpLocation
+from openair.errors import (
+    BindRefusedError,
+    MessageInvalidError,
+    OpenAIRError,
+    ShuttingDownError,
+    StoreFailedError,
+    TypeInvalidError,
+)
+from openair.framing import FrameTag
+from openair.matching import PatternIndex, ascii_fold
+from openair.message import Message
+from openair.objects import encode_tcplocation
+from openair.registration import parse_registration
+from openair.server import commands as cmd
+from openair.server.config import (
+    AIRCENTRAL,
+    DEFAULT_WB_PRIORITY,
+    SYSTEM_COMPONENTS,
+    ServerConfig,
+    ServerLimits,
+)
+from openair.server.retrieve import RETRIEVE, RETRIEVES, answer_retrieve, registration_results
+from openair.server.sessions import ConnId, ModuleInfo, Sessions
+from openair.server.store import HistoryStore
+from openair.server.whiteboard import Whiteboard, derive
+from openair.times import AirTime
+from openair.types import validate_type
+from openair.wakeup import build_wakeup
+
+__all__ = ["ConnId", "Delivery", "ModuleInfo", "Outcome", "Router"]
+
+_NS_PER_MS = 1_000_000
+_TYPE_CACHE_SIZE = 4096
+_SYSTEM = "Psyclone"  # the sender of lifecycle notices (OA-SESS-15, OA-SESS-31)
+_PHASE_SENDER = "ContextsAndPhases"  # the sender of phase updates (OA-WAKE-9)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Delivery:
+    """A message to queue for one module (6.6): due at `due_ns`, ordered by priority (10)."""
+
+    module: str
+    message: Message
+    due_ns: int
+    priority: float  # the carried message's effective priority (OA-PRIO-1)
+    wb_priority: float  # the sending whiteboard's priority (OA-PRIO-2)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Outcome:
+    """What the adapter does after one event.
+
+    `discard_queues` names modules whose session ended (OA-SESS-15): drop their queued
+    deliveries.
+    """
+
+    replies: tuple[Message, ...] = ()
+    deliveries: tuple[Delivery, ...] = ()
+    close_conns: tuple[ConnId, ...] = ()
+    close_this: bool = False
+    discard_queues: tuple[str, ...] = ()
+
+
+@dataclass(slots=True)
+class _Triggers:
+    """The indexed triggers of one module's registration in force."""
+
+    registration: Registration
+    # Per trigger: its pattern, its whiteboard folded ("" = any, OA-TRIG-2), its after (ms).
+    entries: tuple[tuple[str, str, int], ...]
+    allow_self: bool
+
+
+@dataclass(slots=True)
+class _ModuleCounters:
+    requests: int = 0  # requests whose `from` named the module while it was bound
+    queued: int = 0  # deliveries the router decided for it
+    delivered: int = 0  # note_delivered()
+    dropped: int = 0  # note_dropped()
+
+
+Handler = Callable[[ConnId, Message, int, int], Outcome]
+
+
+class Router:
+    """The whole server behind the sockets (spec sections 6–10, 15)."""
+
+    def __init__(
+        self,
+        config: ServerConfig,
+        store: HistoryStore,
+        *,
+        server_name: str,
+        address: str,
+        port: int,
+        limits: ServerLimits,
+        extensions: frozenset[str],
+        port_allocator: Callable[[int], int] | None = None,
+    ) -> None:
+        self.config = config
+        self.server_name = server_name
+        self.address = address
+        self.port = port
+        self.limits = limits
+        self.extensions = extensions
+        self.server_id = cmd.fresh_id()  # OA-SESS-14: stays the same for the server's lifetime
+        self.started_ns: int | None = None
+        self._store = store
+        self._noreply = "noreply" in extensions
+        self._shutting_down = False
+        self._whiteboards = {
+            wb.name: Whiteboard.from_config(wb, store) for wb in config.whiteboards
+        }
+        self._streams = {s.name for wb in config.whiteboards for s in wb.streams}
+        self._configured = {m.name: m.registration for m in config.modules}  # OA-CONF-5
+        self._sessions = Sessions(reserved=self._reserved, port_allocator=port_allocator)
+        self._modules = self._sessions.modules  # the same dict: bound modules by name
+        self._subscribed: dict[str, Registration] = {}  # AIR.Subscribe wins over the config
+        self._index: PatternIndex[tuple[str, int]] = PatternIndex()
+        self._triggers: dict[str, _Triggers] = {}
+        self._valid_types: set[str] = set()
+        self._counters: dict[str, _ModuleCounters] = {}
+        self._lost_notices = 0
+        for name in self._configured:
+            self._reindex(name)
+        self._components = self._component_tables()
+
+    # --- public API -----------------------------------------------------------------------
+
+    def start(self, now_ns: int) -> Outcome:
+        """Post `Psyclone.Context:Psyclone.System.Ready` to AIRCentral (OA-SESS-31), once.
+
+        The adapter calls it when listening; otherwise the first event does.
+        """
+        if self.started_ns is not None:
+            return Outcome()
+        self.started_ns = now_ns
+        return Outcome(deliveries=self._notice("Psyclone.Context:Psyclone.System.Ready", now_ns))
+
+    def connection_opened(self, conn: ConnId, *, address: str) -> None:
+        """Note the peer address of a connection (the module's address, OA-DELIV-1, OA-SESS-4)."""
+        self._sessions.opened(conn, address)
+
+    def handle(
+        self, conn: ConnId, msg: Message, *, tag: FrameTag, received_ns: int, now_ns: int
+    ) -> Outcome:
+        """Answer one request (spec 6–9, 15); `tag` RECEIVE marks a callback (OA-SESS-7)."""
+        started = self.start(now_ns) if self.started_ns is None else None
+        outcome = self._dispatch(conn, msg, tag, received_ns, now_ns)
+        if started is not None and started.deliveries:
+            outcome = replace(outcome, deliveries=started.deliveries + outcome.deliveries)
+        if msg.noreply and self._noreply and outcome.replies:
+            outcome = replace(outcome, replies=())  # OA-MSG-15, OA-WB-8: no reply at all
+        return outcome
+
+    def connection_closed(self, conn: ConnId, *, now_ns: int) -> Outcome:
+        """Forget a connection; a primary one loses its modules (OA-SESS-15)."""
+        names, close = self._sessions.closed(conn)  # their callbacks are closed too
+        if not names:
+            return Outcome()
+        for name in names:
+            if self._subscribed.pop(name, None) is not None:  # OA-SESS-15: registration removed
+                self._reindex(name)  # the configured one, if any, is in force again (OA-CONF-5)
+        deliveries: list[Delivery] = []
+        if not self._shutting_down:
+            for name in names:
+                deliveries.extend(self._notice(f"Psyclone.Module.Lost.{name}", now_ns))
+        return Outcome(deliveries=tuple(deliveries), close_conns=close, discard_queues=tuple(names))
+
+    def module(self, name: str) -> ModuleInfo | None:
+        """Return the bound module `name` (exact case), or None."""
+        return self._modules.get(name)
+
+    def whiteboard(self, name: str) -> Whiteboard | None:
+        """Return the whiteboard `name` (exact case, OA-WB-10), or None."""
+        return self._whiteboards.get(name)
+
+    def registration(self, name: str) -> Registration | None:
+        """Return the registration in force for `name`: subscribed, else configured."""
+        return self._subscribed.get(name) or self._configured.get(name)
+
+    def note_delivered(self, module: str) -> None:
+        """Count one delivery the adapter completed for `module`."""
+        self._module_counters(module).delivered += 1
+
+    def note_dropped(self, module: str, n: int = 1) -> None:
+        """Count deliveries the adapter dropped for `module` (OA-DELIV-7, OA-DELIV-9)."""
+        self._module_counters(module).dropped += n
+
+    def counters(self) -> dict[str, object]:
+        """Return counters per whiteboard and per module, and a registration summary."""
+        boards = {
+            wb.name: {
+                "received": wb.received,
+                "stored": wb.stored,
+                "dispatched": wb.dispatched,
+                "evicted": wb.evicted,
+                "count": len(wb),
+                "next_wbid": wb.next_wbid,
+            }
+            for wb in self._whiteboards.values()
+        }
+        modules = {
+            name: {
+                "bound": name in self._modules,
+                "requests": c.requests,
+                "queued": c.queued,
+                "delivered": c.delivered,
+                "dropped": c.dropped,
+            }
+            for name, c in sorted(self._counters.items())
+        }
+        registrations = {
+            name: {"triggers": len(t.entries), "retrieves": len(t.registration.retrieves)}
+            for name, t in sorted(self._triggers.items())
+        }
+        return {
+            "whiteboards": boards,
+            "modules": modules,
+            "registrations": registrations,
+            "bound": len(self._modules),
+            "triggers": len(self._index),
+            "notices_failed": self._lost_notices,
+        }
+
+    def shutting_down(self) -> None:
+        """Refuse every later request with SHUTTING_DOWN and close its connection (OA-SESS-24)."""
+        self._shutting_down = True
+
+    # --- dispatch -------------------------------------------------------------------------
+
+    def _dispatch(
+        self, conn: ConnId, msg: Message, tag: FrameTag, received_ns: int, now_ns: int
+    ) -> Outcome:
+        if self._shutting_down:  # OA-SESS-24
+            err = ShuttingDownError("the server is shutting down")
+            return Outcome(replies=(self._error(msg, err, "CNS", now_ns),), close_this=True)
+        if tag is FrameTag.RECEIVE:
+            return self._receive_frame(conn, msg, now_ns)
+        if msg.sender in self._modules:
+            self._module_counters(msg.sender).requests += 1
+        board = self._whiteboards.get(msg.to)
+        if board is not None:
+            return self._to_whiteboard(board, msg, received_ns, now_ns)
+        table = self._components.get(msg.to or "CNS")  # OA-SESS-26: empty `to` is CNS
+        if table is not None:
+            handler = table.get(msg.type)
+            if handler is None:  # OA-SESS-20, OA-SESS-29
+                sender = msg.to or "CNS"
+                return Outcome(replies=(cmd.unknown_command(msg, sender=sender, now_ns=now_ns),))
+            return handler(conn, msg, received_ns, now_ns)
+        if msg.to in self._modules:
+            return self._forward(msg, received_ns, now_ns)
+        if msg.to in self._streams:
+            return self._to_stream(msg, now_ns)
+        return Outcome(replies=(cmd.forward_failed(msg, now_ns=now_ns),))  # OA-SESS-21
+
+    def _component_tables(self) -> dict[str, dict[str, Handler]]:
+        """Return each system component's commands (spec 6.2)."""
+        session = {"PING": self._ping, "KEEPALIVE": self._keepalive}  # OA-SESS-10, OA-KEEP-2
+        cns: dict[str, Handler] = {
+            **session,
+            "BIND": self._bind,
+            "BIND_NOLISTEN": self._bind,
+            "RECEIVE_NAME_NOTIFICATION": self._notification_in_message,
+            "RESOLVE_REQUEST": self._resolve,
+            "STATUS": self._status,
+            "GET_CAPABILITIES": self._capabilities,
+        }
+        if "gettime" in self.extensions:
+            cns["GET_TIME"] = self._time  # OA-EXT-2 (only when advertised, OA-CAP-3)
+        return {
+            "CNS": cns,
+            "Config": {**session, "GET_ENTRY": self._entry},
+            "Psyclone": {**session, "Psyclone.Module.Request.CurrentPhase": self._current_phase},
+            "AIRServer": {
+                **session,
+                "GET_ID": self._get_id,
+                "GET_NAME": self._get_name,
+                "System.PerfStat": self._perfstat,
+            },
+            "ContextsAndPhases": dict(session),
+        }
+
+    def _to_whiteboard(
+        self, board: Whiteboard, msg: Message, received_ns: int, now_ns: int
+    ) -> Outcome:
+        """Serve a whiteboard command or take a post (OA-WB-2)."""
+        kind = msg.type
+        if kind == "AIR.Subscribe":
+            return self._subscribe(board, msg, now_ns)
+        if kind in (RETRIEVE, RETRIEVES):
+            answer = answer_retrieve(
+                msg, board, self._whiteboards, now_ns=now_ns, max_xml=self.limits.max_frame_xml
+            )
+            return Outcome(replies=(answer,))
+        if kind == "PING" or kind == "KEEPALIVE":
+            return self._session_reply(msg, board.name, now_ns)
+        return self._post(board, msg, received_ns, now_ns)
+
+    # --- posts and wakeups ----------------------------------------------------------------
+
+    def _post(self, board: Whiteboard, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """Store a post, decide its wakeups, then acknowledge it (spec 7.3, OA-WB-3)."""
+        board.received += 1
+        if msg.type not in self._valid_types:
+            try:
+                self._check_type(msg.type)  # OA-TYPE-3, OA-TYPE-4
+            except TypeInvalidError as err:
+                return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
+        try:
+            stored = board.store_post(msg, received_ns)  # OA-TIME-3, OA-WB-4, OA-WB-5
+        except StoreFailedError as err:  # OA-WB-3: not stored, so not acknowledged
+            return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
+        deliveries = self._decide(board, stored, now_ns)
+        ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=board.name, now_ns=now_ns)  # OA-WB-3
+        return Outcome(replies=(ack,), deliveries=deliveries)
+
+    def _check_type(self, type_: str) -> None:
+        limits = self.limits
+        validate_type(type_, max_bytes=limits.max_type_bytes, max_segments=limits.max_type_segments)
+        if len(self._valid_types) < _TYPE_CACHE_SIZE:
+            self._valid_types.add(type_)
+
+    def _decide(self, board: Whiteboard, stored: Message, now_ns: int) -> tuple[Delivery, ...]:
+        """Decide the wakeups of a stored message (spec 8.6) against the registrations now."""
+        chosen = self._woken(board, stored)
+        if not chosen:
+            return ()
+        base_ns = board.last_received_ns  # the receivedTime stamped on `stored`
+        posted = cmd.ms_time(now_ns)
+        deliveries: list[Delivery] = []
+        for name in sorted(chosen) if len(chosen) > 1 else chosen:
+            after, pattern = chosen[name]
+            reg = self.registration(name)
+            phase = reg.active_phase if reg is not None else None
+            retrieved = registration_results(
+                phase.retrieves if phase else (), board, self._whiteboards, now_ns=now_ns
+            )  # OA-WAKE-7
+            wakeup = build_wakeup(
+                stored=stored,
+                whiteboard=board.name,
+                module=name,
+                retrieved=retrieved,
+                phase=phase or Phase(),  # OA-WAKE-4: an empty phase without a registration
+                lasttrigger=pattern,
+            )
+            deliveries.append(
+                Delivery(
+                    module=name,
+                    message=derive(wakeup, posted=posted),
+                    due_ns=base_ns + after * _NS_PER_MS,  # OA-TRIG-3
+                    priority=stored.effective_priority,  # OA-PRIO-1
+                    wb_priority=board.priority,  # OA-PRIO-2
+                )
+            )
+            self._module_counters(name).queued += 1
+        board.dispatched += len(deliveries)
+        return tuple(deliveries)
+
+    def _woken(self, board: Whiteboard, stored: Message) -> dict[str, tuple[int, str]]:
+        """Return each bound module to wake with (after ms, lasttrigger) (OA-WAKE-5/6)."""
+        modules = self._modules
+        folded_board = ascii_fold(board.name)
+        sender = stored.sender
+        best: dict[str, tuple[int, int]] = {}
+        for name, i in self._index.match(stored.type):  # OA-WB-7: registrations current now
+            if name not in modules:
+                continue  # only a bound module can receive a delivery
+            triggers = self._triggers[name]
+            _, whiteboard, after = triggers.entries[i]
+            if whiteboard and whiteboard != folded_board:
+                continue  # OA-TRIG-2: case-insensitive; "" is any whiteboard
+            if sender == name and not triggers.allow_self:
+                continue  # OA-TRIG-4, OA-REG-6
+            current = best.get(name)
+            if current is None or (after, i) < current:
+                best[name] = (after, i)  # OA-WAKE-6: smallest after, first on a tie
+        chosen = {
+            name: (after, self._triggers[name].entries[i][0]) for name, (after, i) in best.items()
+        }
+        if stored.cc:
+            for name in stored.cc_names:  # OA-CC-1
+                if name in modules and name not in chosen:
+                    chosen[name] = (0, "")  # OA-CC-2, OA-CC-4; OA-CC-3: others skipped
+        return chosen
+
+    def _notice(self, type_: str, now_ns: int) -> tuple[Delivery, ...]:
+        """Post a lifecycle notice from Psyclone to AIRCentral (OA-SESS-6/15/31)."""
+        board = self._whiteboards[AIRCENTRAL]
+        msg = Message(type=type_, sender=_SYSTEM, to=AIRCENTRAL, posted=AirTime.from_ns(now_ns))
+        try:
+            validate_type(type_, max_bytes=None, max_segments=None)
+            stored = board.store_post(msg, now_ns)
+        except (TypeInvalidError, StoreFailedError):
+            self._lost_notices += 1  # a name that makes no valid type, or a failing store
+            return ()
+        board.received += 1
+        return self._decide(board, stored, now_ns)
+
+    def _forward(self, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """Queue a message for a bound module, unchanged, and acknowledge it (OA-SESS-22)."""
+        delivery = Delivery(
+            module=msg.to,
+            message=msg,
+            due_ns=received_ns,
+            priority=msg.effective_priority,
+            wb_priority=DEFAULT_WB_PRIORITY,
+        )
+        self._module_counters(msg.to).queued += 1
+        ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=msg.to, now_ns=now_ns)
+        return Outcome(replies=(ack,), deliveries=(delivery,))
+
+    def _to_stream(self, msg: Message, now_ns: int) -> Outcome:
+        """Answer a request to a stream: PING and KEEPALIVE; media commands are not served."""
+        if msg.type in ("PING", "KEEPALIVE"):
+            return self._session_reply(msg, msg.to, now_ns)
+        return Outcome(replies=(cmd.unknown_command(msg, sender=msg.to, now_ns=now_ns),))
+
+    # --- registrations --------------------------------------------------------------------
+
+    def _subscribe(self, board: Whiteboard, msg: Message, now_ns: int) -> Outcome:
+        """Replace the sender's whole registration (OA-REG-1, OA-REG-7, OA-REG-8)."""
+        try:
+            reg = parse_registration(msg.sender, msg.content, max_triggers=self.limits.max_triggers)
+        except OpenAIRError as err:  # OA-REG-8: the previous registration stays in force
+            return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
+        self._subscribed[msg.sender] = reg
+        self._reindex(msg.sender)
+        ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=board.name, now_ns=now_ns)
+        return Outcome(replies=(ack,), deliveries=self._phase_update(msg.sender, now_ns))
+
+    def _phase_update(self, name: str, now_ns: int) -> tuple[Delivery, ...]:
+        """Tell a bound module its phase in force after a registration (OA-WAKE-9)."""
+        if name not in self._modules:
+            return ()
+        reg = self.registration(name)
+        update = build_wakeup(
+            stored=None,
+            whiteboard=_PHASE_SENDER,
+            module=name,
+            phase=reg.active_phase if reg is not None else None,
+        )
+        self._module_counters(name).queued += 1
+        message = derive(update, posted=cmd.ms_time(now_ns))
+        return (
+            Delivery(
+                module=name,
+                message=message,
+                due_ns=now_ns,
+                priority=message.effective_priority,
+                wb_priority=DEFAULT_WB_PRIORITY,
+            ),
+        )
+
+    def _reindex(self, name: str) -> None:
+        """Put the triggers of `name`'s registration in force into the index (OA-REG-1)."""
+        old = self._triggers.pop(name, None)
+        if old is not None:
+            for i, (pattern, _, _) in enumerate(old.entries):
+                self._index.remove(pattern, (name, i))
+        reg = self.registration(name)
+        if reg is None:
+            self._sessions.set_registration(name, None)
+            return
+        entries = tuple(
+            (t.pattern, _folded_board(t.whiteboard), t.after_ms) for t in reg.triggers
+        )  # OA-REG-10: the triggers of the phase in force
+        for i, (pattern, _, _) in enumerate(entries):
+            self._index.add(pattern, (name, i))
+        self._triggers[name] = _Triggers(
+            registration=reg, entries=entries, allow_self=reg.allow_self_triggering
+        )
+        self._sessions.set_registration(name, reg)
+
+    # --- session commands -----------------------------------------------------------------
+
+    def _bind(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """Bind a module name to this connection (OA-SESS-3..6, OA-SESS-19, OA-SESS-30)."""
+        try:
+            bound = self._sessions.bind(conn, msg, self.registration(msg.sender))
+        except BindRefusedError as err:
+            return Outcome(replies=(self._error(msg, err, "CNS", now_ns),))
+        deliveries: tuple[Delivery, ...] = ()
+        if bound.took_over:  # OA-SESS-6: registration and queue kept, no Lost notice
+            deliveries = self._notice(f"Psyclone.Module.Restored.{msg.sender}", now_ns)
+        content = str(bound.port)
+        accept = cmd.reply(msg, "BIND_ACCEPT", sender="CNS", now_ns=now_ns, content=content)
+        return Outcome(replies=(accept,), deliveries=deliveries, close_conns=bound.close)
+
+    def _reserved(self, name: str) -> bool:
+        """Return whether `name` belongs to a whiteboard, stream or component (OA-SESS-30)."""
+        return name in self._whiteboards or name in self._streams or name in SYSTEM_COMPONENTS
+
+    def _receive_frame(self, conn: ConnId, msg: Message, now_ns: int) -> Outcome:
+        """Make `conn` the callback connection of `from` (OA-SESS-7); no reply."""
+        if msg.type != "RECEIVE_NAME_NOTIFICATION":
+            err = MessageInvalidError("a Receive frame must carry RECEIVE_NAME_NOTIFICATION")
+            return Outcome(replies=(self._error(msg, err, "CNS", now_ns),))
+        close = self._sessions.notify(conn, msg)
+        if close is None:
+            return Outcome(close_this=True)  # no module can ever bind that name
+        return Outcome(close_conns=close)
+
+    def _notification_in_message(
+        self, conn: ConnId, msg: Message, received_ns: int, now_ns: int
+    ) -> Outcome:
+        """Refuse RECEIVE_NAME_NOTIFICATION outside a Receive frame: it would need no reply."""
+        err = MessageInvalidError("RECEIVE_NAME_NOTIFICATION must come in a Receive frame")
+        return Outcome(replies=(self._error(msg, err, "CNS", now_ns),))
+
+    def _resolve(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """Resolve a name to the main port (OA-SESS-8, OA-SESS-9)."""
+        name = msg.content.strip()
+        known = (
+            name in SYSTEM_COMPONENTS
+            or name in self._whiteboards
+            or name in self._streams
+            or name in self._modules  # forwarded through the main port (OA-SESS-22)
+        )
+        if not known:  # NAME_UNRESOLVED: RESOLVE_FAILED keeps its legacy empty content (OA-ERR-6)
+            return Outcome(replies=(cmd.reply(msg, "RESOLVE_FAILED", sender="CNS", now_ns=now_ns),))
+        location = encode_tcplocation(TcpLocation(address=self.address, port=self.port, name=name))
+        answer = cmd.reply(
+            msg, "RESOLVE_SUCCESS", sender="CNS", now_ns=now_ns, content=location, xml=True
+        )
+        return Outcome(replies=(answer,))
+
+    def _session_reply(self, msg: Message, sender: str, now_ns: int) -> Outcome:
+        kind = "PING_SUCCESS" if msg.type == "PING" else "KEEPALIVESUCCESS"
+        return Outcome(replies=(cmd.reply(msg, kind, sender=sender, now_ns=now_ns),))
+
+    def _ping(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        return self._session_reply(msg, msg.to or "CNS", now_ns)  # OA-SESS-10
+
+    def _keepalive(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        return self._session_reply(msg, msg.to or "CNS", now_ns)  # OA-KEEP-2
+
+    def _status(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        started = self.started_ns if self.started_ns is not None else now_ns
+        modules = len(self._modules)
+        answer = cmd.status_reply(msg, started_ns=started, now_ns=now_ns, modules=modules)
+        return Outcome(replies=(answer,))  # OA-SESS-25
+
+    def _capabilities(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        answer = cmd.capabilities_reply(
+            msg,
+            server=self.server_name,
+            extensions=self.extensions,
+            limits=self.limits,
+            now_ns=now_ns,
+        )
+        return Outcome(replies=(answer,))  # OA-SESS-23, OA-CAP-1
+
+    def _time(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """Answer GET_TIME; with usec when the requester declared it (OA-EXT-2, OA-TIME-5)."""
+        declared = self._sessions.extensions_of(conn, msg.sender)
+        usec = "usec" in declared and "usec" in self.extensions
+        return Outcome(replies=(cmd.time_reply(msg, usec=usec, now_ns=now_ns),))
+
+    def _entry(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        return Outcome(replies=(cmd.entry_reply(msg, self.config, now_ns=now_ns),))  # OA-SESS-12
+
+    def _current_phase(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        reg = self.registration(msg.sender)
+        return Outcome(replies=(cmd.current_phase_reply(msg, reg, now_ns=now_ns),))  # OA-SESS-13
+
+    def _get_id(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        answer = cmd.reply(msg, "ID", sender="AIRServer", now_ns=now_ns, content=self.server_id)
+        return Outcome(replies=(answer,))  # OA-SESS-14
+
+    def _get_name(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        answer = cmd.reply(msg, "NAME", sender="AIRServer", now_ns=now_ns, content=self.config.name)
+        return Outcome(replies=(answer,))  # OA-SESS-14
+
+    def _perfstat(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        answer = cmd.reply(msg, "RECEIVE_ACCEPT", sender="AIRServer", now_ns=now_ns)
+        return Outcome(replies=(answer,))  # OA-SESS-14: the content may be ignored
+
+    # --- helpers --------------------------------------------------------------------------
+
+    def _error(self, msg: Message, err: OpenAIRError, sender: str, now_ns: int) -> Message:
+        return cmd.error_reply(msg, err, sender=sender, now_ns=now_ns)  # OA-ERR-2, OA-ERR-6
+
+    def _module_counters(self, name: str) -> _ModuleCounters:
+        counters = self._counters.get(name)
+        if counters is None:
+            counters = self._counters[name] = _ModuleCounters()
+        return counters
+
+
+def _folded_board(whiteboard: str) -> str:
+    """Fold a trigger's `from` for comparison; any / * / empty mean every board (OA-TRIG-2)."""
+    folded = ascii_fold(whiteboard.strip())
+    return ANY_WHITEBOARD if folded in ("", "any", "*") else folded

@@ -1,0 +1,273 @@
+"""One whiteboard: its stored copies, their wbid sequence, eviction and retrieve (spec 7, 9).
+
+Sans-I/O: time comes in as nanoseconds. The stored copies live in a deque in arrival order;
+retrieves scan it from the newest end and stop as soon as `latest` is reached or the received
+times fall below the lower time bound, so `latest=1` on a full board costs one step.
+"""
+
+from __future__ import annotations
+
+import operator
+from collections import deque
+from collections.abc import Callable, Iterator
+from dataclasses import fields
+from typing import Any
+
+from openair.content import ContentMatch, RetrieveSpec
+from openair.errors import StoreFailedError
+from openair.matching import matches
+from openair.message import Message
+from openair.server.commands import ms_time
+from openair.server.config import DEFAULT_MAXCOUNT, DEFAULT_WB_PRIORITY, WhiteboardConfig
+from openair.server.store import HistoryStore
+from openair.xmlsafe import parse_fragment
+
+__all__ = ["Whiteboard", "content_glob", "derive", "text_of"]
+
+_NS_PER_MS = 1_000_000
+# Evict from the store in batches: memory is exact (OA-WB-6), the store may lag a little, and
+# a reload trims to maxcount again.
+_MAX_EVICT_BATCH = 256
+
+_FIELDS = tuple(f.name for f in fields(Message))
+_READ = operator.attrgetter(*_FIELDS)
+_WRITE: tuple[Any, ...] = tuple(Message.__dict__[name].__set__ for name in _FIELDS)
+_INDEX = {name: i for i, name in enumerate(_FIELDS)}
+
+
+def derive(msg: Message, **changes: Any) -> Message:
+    """Return `msg` with `changes`, like `dataclasses.replace` but about four times cheaper.
+
+    It skips `__post_init__`: use it only for slots the server sets to values it knows valid
+    (stored, receivedTime, wbid, postedTime).
+    """
+    values = list(_READ(msg))
+    for name, value in changes.items():
+        values[_INDEX[name]] = value
+    new = object.__new__(Message)
+    for write, value in zip(_WRITE, values, strict=True):
+        write(new, value)
+    return new
+
+
+def content_glob(pattern: str) -> Callable[[str], bool]:
+    """Return a matcher for a retrieve `content` glob (OA-RET-8).
+
+    `*` matches any run of characters; every other character, `?` included, is literal; the
+    whole text must match, case-sensitively.
+    """
+    parts = pattern.split("*")
+    if len(parts) == 1:
+        return pattern.__eq__
+    pre, post, middles = parts[0], parts[-1], parts[1:-1]
+
+    def match(text: str) -> bool:
+        end = len(text) - len(post)
+        if end < len(pre) or not text.startswith(pre) or not text.endswith(post):
+            return False
+        pos = len(pre)
+        # Leftmost placement of each middle part is optimal for `*`-only globs.
+        for middle in middles:
+            found = text.find(middle, pos, end)
+            if found < 0:
+                return False
+            pos = found + len(middle)
+        return True
+
+    return match
+
+
+def text_of(msg: Message) -> str:
+    """Return a message's text content: for XML content, the text of its elements (OA-RET-13)."""
+    if not msg.content_is_xml:
+        return msg.content
+    try:
+        return "".join(str(t) for el in parse_fragment(msg.content) for t in el.itertext())
+    except Exception:  # content that no longer parses has no element text to offer
+        return ""
+
+
+class Whiteboard:
+    """A named store of messages with maxcount eviction and retrieve (spec 7, 9)."""
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        maxcount: int = DEFAULT_MAXCOUNT,
+        priority: float = DEFAULT_WB_PRIORITY,
+        store: HistoryStore | None = None,
+    ) -> None:
+        if maxcount < 1:
+            raise ValueError(f"maxcount must be at least 1, not {maxcount}")
+        self.name = name
+        self.maxcount = maxcount
+        self.priority = priority
+        self.received = 0  # posts addressed to it, stored or not (counted by the router)
+        self.stored = 0  # posts stored since start
+        self.dispatched = 0  # wakeups decided for its posts (counted by the router)
+        self.evicted = 0
+        self.evict_errors = 0
+        self._store = store
+        self._messages: deque[Message] = deque()
+        self._next_wbid = 1  # OA-WB-5: starts at 1
+        self._last_ns = 0
+        self._store_evicted_through = 0
+        self._batch = max(1, min(_MAX_EVICT_BATCH, maxcount // 8))
+        if store is not None:
+            self._reload(store.load(name))
+
+    @classmethod
+    def from_config(cls, config: WhiteboardConfig, store: HistoryStore | None) -> Whiteboard:
+        """Build the whiteboard a `<whiteboard>` declares (OA-CONF-2)."""
+        return cls(config.name, maxcount=config.maxcount, priority=config.priority, store=store)
+
+    def __repr__(self) -> str:
+        return f"<Whiteboard {self.name}: {len(self._messages)} of {self.maxcount} messages>"
+
+    def __len__(self) -> int:
+        return len(self._messages)
+
+    @property
+    def next_wbid(self) -> int:
+        """The wbid the next stored message will get."""
+        return self._next_wbid
+
+    @property
+    def last_received_ns(self) -> int:
+        """The receipt time (ns) stamped on the newest post (OA-TIME-3, OA-WB-12)."""
+        return self._last_ns
+
+    def newest_first(self) -> Iterator[Message]:
+        """Iterate the stored copies, newest first (OA-RET-6)."""
+        return reversed(self._messages)
+
+    def stamp(self, received_ns: int) -> int:
+        """Return the receipt time to stamp, never earlier than the previous one (OA-WB-12)."""
+        if received_ns < self._last_ns:
+            received_ns = self._last_ns  # a clock step back must not reorder receivedTime
+        self._last_ns = received_ns
+        return received_ns
+
+    def store_post(self, msg: Message, received_ns: int) -> Message:
+        """Store a post and return its stored copy (OA-WB-4); raise StoreFailedError (OA-WB-3).
+
+        The copy gets `stored` = this whiteboard, `receivedTime` and the next `wbid` (OA-WB-5);
+        every other slot is kept. The store is written first: nothing is kept in memory when
+        it fails, and the wbid is not used up.
+        """
+        copy = derive(
+            msg,
+            stored=self.name,
+            received=ms_time(self.stamp(received_ns)),  # OA-TIME-3
+            wbid=self._next_wbid,
+        )
+        if self._store is not None:
+            try:
+                self._store.append(self.name, copy)  # OA-WB-3, OA-WB-9: durable before the ack
+            except Exception as exc:
+                raise StoreFailedError(f"{self.name}: {exc}") from exc
+        self._next_wbid += 1
+        self._messages.append(copy)
+        self.stored += 1
+        if len(self._messages) > self.maxcount:
+            self._evict()
+        return copy
+
+    def retrieve(self, spec: RetrieveSpec, *, now_ns: int) -> list[Message]:
+        """Return the stored copies `spec` selects, newest first (OA-RET-3..9, OA-RET-6).
+
+        The spec's `whiteboard` is not looked at: the caller chose this whiteboard (OA-RET-2).
+        """
+        accept = _criteria(spec)
+        lower_us = _lower_bound_us(spec, now_ns)
+        upper_us = spec.until_time.us if spec.until_time is not None else None
+        limit = spec.latest  # OA-RET-4: 0 = no limit
+        found: list[Message] = []
+        for msg in reversed(self._messages):
+            received_us = msg.received.us if msg.received is not None else 0
+            if lower_us is not None and received_us < lower_us:
+                break  # receivedTime falls with wbid (OA-WB-12): nothing older can qualify
+            if upper_us is not None and received_us > upper_us:
+                continue  # OA-RET-9: untilTime is an inclusive upper bound
+            if accept(msg):
+                found.append(msg)
+                if len(found) == limit:
+                    break
+        return found
+
+    def _reload(self, history: list[Message]) -> None:
+        """Take over the store's history: keep the newest maxcount, continue wbid (OA-WB-9)."""
+        if not history:
+            return
+        last = max(m.wbid or 0 for m in history)
+        self._next_wbid = last + 1  # OA-WB-5: the sequence continues after a restart
+        kept = history[-self.maxcount :]
+        if len(kept) < len(history):
+            through = kept[0].wbid or 0
+            self._evict_store(through - 1)
+        self._messages.extend(kept)
+        newest = kept[-1].received
+        self._last_ns = newest.ms * _NS_PER_MS if newest is not None else 0
+
+    def _evict(self) -> None:
+        """Drop the oldest copies beyond maxcount (OA-WB-6), and from the store in batches."""
+        while len(self._messages) > self.maxcount:
+            self._messages.popleft()
+            self.evicted += 1
+        oldest_kept = self._messages[0].wbid or 0
+        if oldest_kept - 1 - self._store_evicted_through >= self._batch:
+            self._evict_store(oldest_kept - 1)
+
+    def _evict_store(self, through: int) -> None:
+        if self._store is None:
+            return
+        try:
+            self._store.evict(self.name, through)
+        except Exception:  # the post is stored; a failed eviction is retried with the next batch
+            self.evict_errors += 1
+            return
+        self._store_evicted_through = through
+
+
+def _lower_bound_us(spec: RetrieveSpec, now_ns: int) -> int | None:
+    """Return the inclusive lower bound on receivedTime in µs (OA-RET-5, OA-RET-9), if any."""
+    bounds: list[int] = []
+    if spec.lastmsec:  # OA-RET-5: 0 or absent sets no window
+        bounds.append((now_ns // _NS_PER_MS - spec.lastmsec) * 1000)
+    if spec.after_time is not None:
+        bounds.append(spec.after_time.us)
+    return max(bounds) if bounds else None
+
+
+def _criteria(spec: RetrieveSpec) -> Callable[[Message], bool]:
+    """Return the AND of the spec's per-message criteria (OA-RET-3)."""
+    checks: list[Callable[[Message], bool]] = []
+    if spec.pattern and spec.pattern != "*":
+        pattern = spec.pattern
+        seen: dict[str, bool] = {}  # types repeat: match each distinct type once
+
+        def type_ok(msg: Message) -> bool:
+            hit = seen.get(msg.type)
+            if hit is None:
+                hit = seen[msg.type] = matches(pattern, msg.type)  # OA-MATCH-8
+            return hit
+
+        checks.append(type_ok)
+    if spec.id:
+        wanted_id = spec.id
+        checks.append(lambda m: m.id == wanted_id)
+    if spec.sender:
+        wanted_sender = spec.sender
+        checks.append(lambda m: m.sender == wanted_sender)  # case-sensitive (OA-RET-3)
+    if spec.content:
+        glob = content_glob(spec.content)  # OA-RET-8
+        if spec.contentmatch is ContentMatch.XML:
+            checks.append(lambda m: glob(m.content))  # OA-RET-13: the XML as written
+        else:
+            checks.append(lambda m: glob(text_of(m)))
+    if not checks:
+        return lambda m: True
+    if len(checks) == 1:
+        return checks[0]
+    return lambda m: all(check(m) for check in checks)

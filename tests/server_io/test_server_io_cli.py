@@ -1,0 +1,62 @@
+"""`openair serve`: readiness line, configuration errors, exit codes, SIGTERM."""
+
+from __future__ import annotations
+
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from openair.codec import from_frame, to_frame
+from openair.framing import FrameReader, encode_frame
+from openair.message import Message
+from openair.server.cli_serve import serve
+
+
+def test_help_documents_the_exit_codes() -> None:
+    result = CliRunner().invoke(serve, ["--help"])
+    assert result.exit_code == 0
+    assert "Exit codes" in result.output
+    assert "--store" in result.output and "--config" in result.output
+
+
+def test_an_invalid_configuration_exits_2_naming_file_and_line(tmp_path: Path) -> None:
+    spec = tmp_path / "bad.xml"
+    spec.write_text('<psySpec name="x">\n  <whiteboard name="WB1">\n</psySpec>\n')
+    result = CliRunner().invoke(serve, ["--port", "0", "--config", str(spec)])
+    assert result.exit_code == 2
+    assert f"{spec}:" in result.output
+
+
+def test_an_unknown_store_exits_2() -> None:
+    result = CliRunner().invoke(serve, ["--port", "0", "--store", "floppy"])
+    assert result.exit_code == 2
+    assert "floppy" in result.output
+
+
+def test_serve_announces_its_port_serves_and_stops_on_sigterm() -> None:
+    code = "from openair.server.cli_serve import serve; serve()"
+    argv = [sys.executable, "-c", code, "--port", "0", "--log-level", "warning"]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        assert line.startswith("listening on 127.0.0.1:"), line
+        assert "(whiteboards: AIRCentral, WB1, WB2)" in line
+        port = int(line.split(":", 1)[1].split()[0])
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+            ping = Message(type="PING", to="CNS", sender="CliTest")
+            sock.sendall(encode_frame(to_frame(ping)))
+            reader = FrameReader()
+            while (frame := reader.next_frame()) is None:
+                reader.feed(sock.recv(65536))
+            assert from_frame(frame).isresponse == ping.id
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=20) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

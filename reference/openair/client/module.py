@@ -1,0 +1,644 @@
+"""The async OpenAIR module: connect, bind, register, post, retrieve, receive wakeups.
+
+`Module` is an async context manager over one primary connection (requests) and the module's
+delivery side (`listener.py`: its listening port and its callback connection). It works against a
+server with extensions and against a legacy server (Psyclone 1.1.7): it asks GET_CAPABILITIES
+first and treats UNKNOWN_COMMAND as legacy (OA-CAP-2), declaring extensions only to a server that
+advertised them (OA-GEN-2, OA-SESS-19). No threads: everything runs as tasks of the caller's loop.
+
+Connecting follows JavaOpenAIR: primary connection, BIND (or BIND_NOLISTEN), listen on the port of
+BIND_ACCEPT, open the callback connection (RECEIVE_NAME_NOTIFICATION), post
+`Psyclone.Module.Connect.<name>` to AIRCentral. When the primary connection is lost the module
+reconnects with backoff, binds again, re-sends its last registration and posts
+`Psyclone.Module.Reconnect.<name>`, as JavaOpenAIR's maintenance thread does.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import inspect
+import logging
+import time
+from collections.abc import AsyncIterator, Awaitable, Callable, Iterable, Sequence
+from dataclasses import dataclass, replace
+from types import TracebackType
+from typing import TypeVar
+
+from openair.client.link import Link
+from openair.client.listener import Listener
+from openair.client.session import CLIENT_EXTENSIONS, DEFAULT_MAX_IN_FLIGHT, ClientConnection
+from openair.content import (
+    Phase,
+    Registration,
+    RegistrationForm,
+    RetrieveSpec,
+    TcpLocation,
+    Trigger,
+)
+from openair.errors import (
+    ERRORS,
+    ApiMisuseError,
+    Blame,
+    ConnectionClosedError,
+    OpenAIRError,
+    RequestFailedError,
+    RequestTimeoutError,
+)
+from openair.message import Message
+from openair.objects import (
+    Capabilities,
+    parse_capabilities,
+    parse_message_collection,
+    parse_tcplocation,
+)
+from openair.registration import encode_registration, encode_retrieve, encode_retrieves
+from openair.types import is_valid_type, validate_pattern, validate_type
+from openair.wakeup import Wakeup, parse_wakeup
+
+log = logging.getLogger("openair.client")
+
+AIRCENTRAL = "AIRCentral"
+CNS = "CNS"
+WAKEUP_TYPE = "AIR.Instruct.Wakeup"
+
+_E = TypeVar("_E")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class WakeupEvent:
+    """A wakeup delivered to the module; `received_ns` was read from the clock on arrival.
+
+    A phase update (Psyclone sends one after each AIR.Subscribe) has `wakeup.trigger` None.
+    """
+
+    wakeup: Wakeup
+    message: Message
+    received_ns: int
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MessageEvent:
+    """Any other message delivered to the module (forwarded to it by name, OA-SESS-22)."""
+
+    message: Message
+    received_ns: int
+
+
+class FailedReplyError(RequestFailedError):
+    """A request got a failure reply (REQUEST_FAILED, OA-GEN-3); `response` is that reply.
+
+    `condition` is the error-table class named by a `NAME: detail` content (OA-ERR-2), or None
+    when the content names no condition a peer may send (OA-ERR-7, OA-ERR-8).
+    """
+
+    def __init__(self, request: Message, response: Message) -> None:
+        detail = f"{request.type} answered {response.type}"
+        super().__init__(f"{detail}: {response.content}" if response.content else detail)
+        self.request = request
+        self.response = response
+
+    @property
+    def condition(self) -> type[OpenAIRError] | None:
+        """The error condition the reply names, if it names one (OA-ERR-8)."""
+        cls = ERRORS.get(self.response.content.split(":", 1)[0].strip())
+        return None if cls is None or cls.blame is Blame.LOCAL else cls
+
+
+def _expect(sent: Message, reply: Message, *types: str) -> Message:
+    """Return `reply` when its type is one of `types`, else raise FailedReplyError."""
+    if reply.type not in types:
+        raise FailedReplyError(sent, reply)
+    return reply
+
+
+def _triggers(triggers: str | Trigger | Iterable[str | Trigger]) -> tuple[Trigger, ...]:
+    """Normalise triggers: a string is a pattern on any whiteboard; patterns are validated."""
+    items = (triggers,) if isinstance(triggers, (str, Trigger)) else tuple(triggers)
+    out = tuple(Trigger(pattern=t) if isinstance(t, str) else t for t in items)
+    for trigger in out:
+        validate_pattern(trigger.pattern)  # OA-MATCH-7: refuse before the server has to
+    return out
+
+
+def _cc(cc: str | Iterable[str]) -> str:
+    """Join cc names with `;` (OA-CC-1)."""
+    return cc if isinstance(cc, str) else ";".join(cc)
+
+
+WakeupCallback = Callable[[WakeupEvent], Awaitable[None] | None]
+MessageCallback = Callable[[MessageEvent], Awaitable[None] | None]
+
+
+class Module:
+    """An OpenAIR module (or, with `bind=False`, a plain client) connected to one server.
+
+    `listen=False` binds with BIND_NOLISTEN and takes deliveries over the callback connection
+    only (OA-SESS-5, OA-DELIV-10). `extensions=None` declares every extension this client
+    implements that the server advertises; a legacy server gets no extension (OA-CAP-2).
+    `request_timeout` bounds each request (OA-SESS-27: at least 10 s is advised). With
+    `reconnect`, a lost primary connection is re-established with exponential backoff from
+    `reconnect_delay` to `reconnect_max_delay` seconds. `on_wakeup` / `on_message` receive
+    deliveries instead of the `wakeups()` / `messages()` queues. `keepalive` is the idle time
+    after which KEEPALIVE is sent on the primary connection (OA-KEEP-1; None disables it).
+    """
+
+    def __init__(
+        self,
+        name: str,
+        host: str = "127.0.0.1",
+        port: int = 10000,
+        *,
+        listen: bool = True,
+        callback: bool = True,
+        extensions: Iterable[str] | None = None,
+        request_timeout: float | None = 10.0,
+        bind: bool = True,
+        announce: bool = True,
+        reconnect: bool = True,
+        reconnect_delay: float = 0.05,
+        reconnect_max_delay: float = 2.0,
+        keepalive: float | None = 60.0,
+        on_wakeup: WakeupCallback | None = None,
+        on_message: MessageCallback | None = None,
+        inbox_size: int = 10000,
+        now: Callable[[], int] = time.time_ns,
+    ) -> None:
+        wanted = CLIENT_EXTENSIONS if extensions is None else frozenset(extensions)
+        if unknown := wanted - CLIENT_EXTENSIONS:
+            raise ApiMisuseError(f"extensions this client does not implement: {sorted(unknown)}")
+        if bind and not listen and not callback:
+            raise ApiMisuseError("BIND_NOLISTEN needs the callback connection (OA-DELIV-10)")
+        self.name = name
+        self.host = host
+        self.port = port
+        self.request_timeout = request_timeout
+        self._listen, self._callback, self._bind, self._announce = listen, callback, bind, announce
+        self._wanted = wanted
+        self._reconnect = reconnect
+        self._delays = (reconnect_delay, reconnect_max_delay)
+        self._keepalive = keepalive
+        self._on_wakeup, self._on_message = on_wakeup, on_message
+        self._now = now
+        self._wakeups: asyncio.Queue[WakeupEvent | None] = asyncio.Queue(inbox_size)
+        self._messages: asyncio.Queue[MessageEvent | None] = asyncio.Queue(inbox_size)
+        self._listener = Listener(self._deliver, name=name, now=now)
+        self._link: Link | None = None
+        self._ready = asyncio.Event()
+        self._changed = asyncio.Condition()
+        self._tasks: set[asyncio.Task[None]] = set()
+        self._started = self._closed = self._lost = False
+        self.capabilities: Capabilities | None = None
+        self.legacy = False
+        self.extensions: frozenset[str] = frozenset()
+        self.bound_port: int | None = None
+        self.registration: Registration | None = None
+        self.generation = 0
+        self.dropped_messages = 0
+
+    # -- lifecycle ---------------------------------------------------------------------------
+
+    async def __aenter__(self) -> Module:
+        await self.connect()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self.close()
+
+    @property
+    def connected(self) -> bool:
+        """True while the primary connection is up and set up."""
+        return self._link is not None and self._ready.is_set() and not self._closed
+
+    @property
+    def session(self) -> ClientConnection | None:
+        """The sans-I/O session of the primary connection (for diagnostics), if connected."""
+        return self._link.conn if self._link is not None else None
+
+    @property
+    def listen_port(self) -> int | None:
+        """The port the module listens on for deliveries, if it listens."""
+        return self._listener.port
+
+    async def connect(self) -> None:
+        """Connect, bind and start receiving; raises OSError when the server is unreachable."""
+        if self._started:
+            raise ApiMisuseError("connect() was already called")
+        self._started = True
+        try:
+            await self._establish(first=True)
+        except BaseException:
+            await self.close()
+            raise
+        if self._keepalive is not None:
+            self._spawn(self._keepalive_loop(self._keepalive))
+
+    async def close(self) -> None:
+        """Close every connection; later requests raise ConnectionClosedError."""
+        if self._closed:
+            return
+        self._closed = True
+        for task in list(self._tasks):
+            task.cancel()
+        await asyncio.gather(*self._tasks, return_exceptions=True)
+        link, self._link = self._link, None
+        if link is not None:
+            await link.close()
+        await self._listener.close()
+        for queue in (self._wakeups, self._messages):
+            with contextlib.suppress(asyncio.QueueFull):
+                queue.put_nowait(None)  # wakes a waiting consumer; a full queue drains first
+        self._ready.set()
+
+    async def wait_connected(self, generation: int = 1, timeout: float | None = None) -> None:
+        """Wait until the module has (re)connected `generation` times in all."""
+        async with asyncio.timeout(timeout), self._changed:
+            await self._changed.wait_for(lambda: self.generation >= generation or self._closed)
+        if self.generation < generation:
+            raise ConnectionClosedError("the module closed before it reconnected")
+
+    def _spawn(self, coro: Awaitable[None]) -> None:
+        """Run a background task owned by this module (cancelled by close())."""
+        task: asyncio.Task[None] = asyncio.ensure_future(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _establish(self, *, first: bool) -> None:
+        """Open the primary connection and set the session up (capabilities, bind, receive)."""
+        link = await Link.open(
+            self.host, self.port, now=self._now, name=self.name, on_lost=self._primary_lost
+        )
+        try:
+            await self._negotiate(link)
+            if self._bind:
+                await self._bind_and_receive(link)
+                if self.registration is not None:
+                    await self._send_registration(link, self.registration)
+                if self._announce:
+                    kind = "Connect" if first else "Reconnect"
+                    await self._announce_on(link, f"Psyclone.Module.{kind}.{self.name}")
+        except BaseException:
+            await link.close()
+            raise
+        self._link = link
+        self._ready.set()
+        async with self._changed:
+            self.generation += 1
+            self._changed.notify_all()
+
+    async def _negotiate(self, link: Link) -> None:
+        """Ask GET_CAPABILITIES; UNKNOWN_COMMAND (or any other answer) means legacy (OA-CAP-2)."""
+        ask = Message(type="GET_CAPABILITIES", sender=self.name, to=CNS)
+        _, reply = await link.request(ask, self.request_timeout)
+        self.capabilities = None
+        if reply.type == "CAPABILITIES":
+            try:
+                self.capabilities = parse_capabilities(reply.content)
+            except OpenAIRError as exc:
+                log.warning("unreadable CAPABILITIES, treating the server as legacy: %s", exc)
+        self.legacy = self.capabilities is None
+        offered = frozenset(self.capabilities.extensions) if self.capabilities else frozenset()
+        self.extensions = self._wanted & offered  # OA-GEN-2
+        limits = dict(self.capabilities.limits) if self.capabilities else {}
+        window = limits.get("max-in-flight", DEFAULT_MAX_IN_FLIGHT)
+        link.conn.extensions = self.extensions
+        link.set_window(max(1, window) if "pipelining" in self.extensions else 1)
+        self._listener.extensions = self.extensions
+
+    def _declare(self, msg: Message) -> Message:
+        """Add the `extensions` slot, only towards a server that is not legacy (OA-SESS-19)."""
+        if self.legacy:
+            return msg  # OA-GEN-2: a legacy server is never sent an extension's wire form
+        return msg.with_extra("extensions", " ".join(sorted(self.extensions)))
+
+    async def _bind_and_receive(self, link: Link) -> None:
+        """BIND (or BIND_NOLISTEN), listen on the given port, open the callback connection."""
+        kind = "BIND" if self._listen else "BIND_NOLISTEN"
+        bind = self._declare(Message(type=kind, sender=self.name, to=CNS))
+        sent, reply = await link.request(bind, self.request_timeout)
+        _expect(sent, reply, "BIND_ACCEPT")
+        try:
+            port = int(reply.content.strip())  # OA-SESS-3, OA-SESS-5
+        except ValueError:
+            raise FailedReplyError(sent, reply) from None
+        self.bound_port = port
+        if self._listen and port > 0 and self._listener.port != port:
+            await self._listener.stop_listening()
+            await self._listener.listen(link.local_host, port)  # OA-DELIV-10
+        if self._callback:
+            note = self._declare(Message(type="RECEIVE_NAME_NOTIFICATION", sender=self.name))
+            await self._listener.open_callback(self.host, self.port, note)  # OA-SESS-7
+
+    async def _announce_on(self, link: Link, type_: str) -> None:
+        """Post a lifecycle notice to AIRCentral, as JavaOpenAIR does (spec 6.9)."""
+        if not is_valid_type(type_):
+            return  # a module name that cannot form a type: nothing to announce
+        sent, reply = await link.request(
+            Message(type=type_, sender=self.name, to=AIRCENTRAL), self.request_timeout
+        )
+        _expect(sent, reply, "RECEIVE_ACCEPT")
+
+    def _primary_lost(self, link: Link, error: BaseException | None) -> None:
+        """React to the loss of the primary connection: reconnect, or fail what waits."""
+        if link is not self._link or self._closed:
+            return
+        log.info("%s: primary connection lost (%s)", self.name, error or "closed by the server")
+        self._link = None
+        self._ready.clear()
+        if self._reconnect:
+            self._spawn(self._reconnect_loop())
+        else:
+            self._lost = True
+            self._ready.set()
+
+    async def _reconnect_loop(self) -> None:
+        """Re-establish the session with exponential backoff until it works or close()."""
+        delay, max_delay = self._delays
+        while not self._closed:
+            await asyncio.sleep(delay)
+            try:
+                await self._establish(first=False)
+                return
+            except (OSError, OpenAIRError) as exc:
+                log.info("%s: reconnect failed (%s); retrying in %.2f s", self.name, exc, delay)
+                delay = min(delay * 2, max_delay)
+
+    async def _keepalive_loop(self, interval: float) -> None:
+        """Send KEEPALIVE after `interval` seconds without traffic (OA-KEEP-1)."""
+        while True:
+            link = self._link
+            idle = time.monotonic() - link.last_traffic if link is not None else 0.0
+            if link is None or idle < interval:
+                await asyncio.sleep(interval - idle)
+                continue
+            # OA-KEEP-1: empty from and to; OA-KEEP-3: an unanswered KEEPALIVE never closes.
+            with contextlib.suppress(OpenAIRError, OSError):
+                await link.request(Message(type="KEEPALIVE"), None)
+
+    # -- deliveries --------------------------------------------------------------------------
+
+    async def _deliver(self, msg: Message, received_ns: int) -> str | None:
+        """Handle one delivery; the listener answers it (OA-SESS-11, OA-DELIV-4).
+
+        PING and KEEPALIVE get their default answers. A wakeup that cannot be read raises, and
+        the listener answers RECEIVE_ERROR (OA-SESS-11).
+        """
+        if msg.type in ("PING", "KEEPALIVE"):
+            return None
+        if msg.type == WAKEUP_TYPE:
+            event = WakeupEvent(wakeup=parse_wakeup(msg), message=msg, received_ns=received_ns)
+            if self._on_wakeup is not None:
+                await self._call(self._on_wakeup, event)
+            else:
+                await self._wakeups.put(event)  # a full inbox holds the acknowledgement back
+            return None
+        direct = MessageEvent(message=msg, received_ns=received_ns)
+        if self._on_message is not None:
+            await self._call(self._on_message, direct)
+        else:
+            if self._messages.full():  # nobody may be reading these: keep the newest
+                self._messages.get_nowait()
+                self.dropped_messages += 1
+            self._messages.put_nowait(direct)
+        return None
+
+    async def _call(self, callback: Callable[[_E], Awaitable[None] | None], event: _E) -> None:
+        """Run a user callback; its failure is logged, the delivery is still acknowledged."""
+        try:
+            result = callback(event)
+            if inspect.isawaitable(result):
+                await result
+        except Exception:
+            log.exception("%s: delivery callback failed", self.name)
+
+    async def next_wakeup(self, timeout: float | None = None) -> WakeupEvent | None:
+        """Return the next wakeup, or None after `timeout` seconds or once the module closed."""
+        return await self._next(self._wakeups, timeout)
+
+    async def next_message(self, timeout: float | None = None) -> MessageEvent | None:
+        """Return the next directly delivered message, or None (timeout or closed)."""
+        return await self._next(self._messages, timeout)
+
+    async def _next(self, queue: asyncio.Queue[_E | None], timeout: float | None) -> _E | None:
+        if self._closed and queue.empty():
+            return None
+        try:
+            async with asyncio.timeout(timeout):
+                return await queue.get()
+        except TimeoutError:
+            return None
+
+    async def wakeups(self) -> AsyncIterator[WakeupEvent]:
+        """Iterate over wakeups as they arrive, until the module closes."""
+        while (event := await self.next_wakeup()) is not None:
+            yield event
+
+    async def messages(self) -> AsyncIterator[MessageEvent]:
+        """Iterate over directly delivered messages, until the module closes."""
+        while (event := await self.next_message()) is not None:
+            yield event
+
+    # -- requests ----------------------------------------------------------------------------
+
+    async def _wait_link(self) -> Link:
+        """Return the primary connection, waiting while the module reconnects."""
+        while True:
+            if self._closed:
+                raise ConnectionClosedError("the module is closed")
+            if not self._started:
+                raise ApiMisuseError("call connect() first")
+            if self._lost:
+                raise ConnectionClosedError("the connection to the server was lost")
+            if self._link is not None and self._ready.is_set():
+                return self._link
+            await self._ready.wait()
+
+    async def _request(self, msg: Message) -> tuple[Message, Message]:
+        """Send `msg` on the primary connection; return it as sent and its reply."""
+        try:
+            async with asyncio.timeout(self.request_timeout):
+                link = await self._wait_link()
+        except TimeoutError:
+            raise RequestTimeoutError(f"not connected within {self.request_timeout} s") from None
+        return await link.request(msg, self.request_timeout)
+
+    async def request(self, msg: Message) -> Message:
+        """Send any request as is (postedTime stamped) and return the reply, uninterpreted."""
+        return (await self._request(msg))[1]
+
+    def message(
+        self,
+        to: str,
+        type: str,
+        content: str = "",
+        *,
+        cc: str | Iterable[str] = (),
+        priority: float | None = None,
+        language: str = "",
+        content_is_xml: bool = False,
+        noreply: bool = False,
+        binary: Sequence[bytes] = (),
+    ) -> Message:
+        """Build a message from this module (type validated, OA-TYPE-1)."""
+        return Message(
+            type=validate_type(type),
+            sender=self.name,
+            to=to,
+            cc=_cc(cc),
+            priority=priority,
+            language="xml" if content_is_xml and not language else language,
+            content=content,
+            content_is_xml=content_is_xml,
+            noreply=noreply,
+            binary=tuple(binary),
+        )
+
+    async def post(
+        self,
+        to: str,
+        type: str,
+        content: str = "",
+        *,
+        cc: str | Iterable[str] = (),
+        priority: float | None = None,
+        language: str = "",
+        content_is_xml: bool = False,
+        noreply: bool = False,
+        binary: Sequence[bytes] = (),
+    ) -> Message:
+        """Post a message and wait for RECEIVE_ACCEPT (OA-WB-3); return it as sent.
+
+        A failure reply raises FailedReplyError. With `noreply` nothing is awaited: under the
+        `noreply` extension no reply comes (OA-WB-8); towards a server without it the message is
+        sent plainly (OA-GEN-2) and its reply is read and dropped.
+        """
+        msg = self.message(
+            to, type, content, cc=cc, priority=priority, language=language,
+            content_is_xml=content_is_xml, noreply=noreply, binary=binary,
+        )  # fmt: skip
+        if noreply:
+            return await self._post_noreply(msg)
+        sent, reply = await self._request(msg)
+        _expect(sent, reply, "RECEIVE_ACCEPT")
+        return sent
+
+    async def _post_noreply(self, msg: Message) -> Message:
+        """Send without waiting: `noreply` when the server has it, else fire and forget."""
+        link = await self._wait_link()
+        if "noreply" in self.extensions:
+            return await link.send_noreply(msg)
+        sent, future = await link.submit(replace(msg, noreply=False), self.request_timeout)
+        future.add_done_callback(_log_dropped_reply)
+        return sent
+
+    async def post_many(self, messages: Iterable[Message]) -> list[Message]:
+        """Post several messages, pipelined when the server allows (OA-SESS-17); in order.
+
+        A message without `from` gets this module's name. Every reply is awaited; the first
+        failure is raised afterwards (FailedReplyError).
+        """
+        link = await self._wait_link()
+        pending: list[tuple[Message, asyncio.Future[Message]]] = []
+        for msg in messages:
+            pending.append(await link.submit(replace(msg, sender=msg.sender or self.name),
+                                             self.request_timeout))  # fmt: skip
+        sent_all: list[Message] = []
+        failure: OpenAIRError | None = None
+        for sent, future in pending:
+            try:
+                _expect(sent, await link.result(future, self.request_timeout), "RECEIVE_ACCEPT")
+            except OpenAIRError as exc:
+                failure = failure or exc
+            sent_all.append(sent)
+        if failure is not None:
+            raise failure
+        return sent_all
+
+    async def subscribe(
+        self,
+        triggers: str | Trigger | Iterable[str | Trigger],
+        retrieves: Iterable[RetrieveSpec] = (),
+        *,
+        allow_self_triggering: bool = False,
+    ) -> Registration:
+        """Replace this module's registration (OA-REG-1); it is re-sent after a reconnect.
+
+        A string trigger is a pattern on any whiteboard; patterns are validated first
+        (OA-MATCH-7). Sent as the `<module>` form to AIRCentral (OA-REG-3), which Psyclone
+        also reads with its retrieves.
+        """
+        phase = Phase(name="Default", triggers=_triggers(triggers), retrieves=tuple(retrieves))
+        reg = Registration(
+            module=self.name,
+            form=RegistrationForm.MODULE,
+            phases=(phase,),
+            allow_self_triggering=allow_self_triggering,
+        )
+        await self._send_registration(await self._wait_link(), reg)
+        self.registration = reg
+        return reg
+
+    async def _send_registration(self, link: Link, reg: Registration) -> None:
+        """Send AIR.Subscribe and require RECEIVE_ACCEPT (OA-REG-7)."""
+        msg = Message(
+            type="AIR.Subscribe",
+            sender=self.name,
+            to=AIRCENTRAL,
+            language="xml",
+            content=encode_registration(reg, RegistrationForm.MODULE),
+            content_is_xml=True,
+        )
+        sent, reply = await link.request(msg, self.request_timeout)
+        _expect(sent, reply, "RECEIVE_ACCEPT")
+
+    async def retrieve(
+        self, specs: RetrieveSpec | Sequence[RetrieveSpec], *, to: str = AIRCENTRAL
+    ) -> list[Message]:
+        """Retrieve stored messages, newest first (OA-RET-6).
+
+        One spec is sent as AIR.Retrieve, several as AIR.Retrieves (OA-RET-1); a spec without
+        `whiteboard` reads the addressee `to` (OA-RET-2).
+        """
+        if isinstance(specs, RetrieveSpec):
+            kind, content = "AIR.Retrieve", encode_retrieve(specs)
+        else:
+            kind, content = "AIR.Retrieves", encode_retrieves(specs)
+        msg = Message(
+            type=kind, sender=self.name, to=to, language="xml", content=content, content_is_xml=True
+        )
+        sent, reply = await self._request(msg)
+        _expect(sent, reply, f"{kind}.Success")  # OA-RET-7
+        if not reply.content.strip():
+            return []
+        return list(parse_message_collection(reply.content))
+
+    async def resolve(self, name: str) -> TcpLocation:
+        """Ask CNS where a component listens (OA-SESS-8); RESOLVE_FAILED raises."""
+        msg = Message(type="RESOLVE_REQUEST", sender=self.name, to=CNS, content=name)
+        sent, reply = await self._request(msg)
+        _expect(sent, reply, "RESOLVE_SUCCESS")
+        return parse_tcplocation(reply.content)
+
+    async def ping(self) -> float:
+        """Send PING to CNS and return the round-trip time in seconds (OA-SESS-10)."""
+        msg = Message(type="PING", sender=self.name, to=CNS)
+        start = time.perf_counter()
+        sent, reply = await self._request(msg)
+        rtt = time.perf_counter() - start
+        _expect(sent, reply, "PING_SUCCESS")
+        return rtt
+
+
+def _log_dropped_reply(future: asyncio.Future[Message]) -> None:
+    """Log the outcome of a fire-and-forget post that nobody awaits."""
+    if future.cancelled():
+        return
+    if (exc := future.exception()) is not None:
+        log.warning("unacknowledged post failed: %s", exc)
+    elif future.result().type != "RECEIVE_ACCEPT":
+        log.warning("unacknowledged post refused: %s", future.result().type)

@@ -1,0 +1,370 @@
+"""The client side of one OpenAIR connection, without I/O (h11-style, spec section 6).
+
+`ClientConnection` turns calls into bytes to send and received bytes into events. It never
+touches a socket or a clock: the clock is passed in (`now`, nanoseconds since the epoch) and read
+only as the last act before a message is encoded (OA-TIME-2).
+
+A connection has a fixed role (OA-SESS-28). As REQUESTER (the primary connection, any connection
+the module opened) it sends requests and every frame it receives is a reply, paired with the
+oldest unanswered request (OA-SESS-33). As RESPONDER (a connection the server opened to the
+module's listening port, or a callback connection after its `Receive` frame) every frame it
+receives is a request, which the module answers in arrival order (OA-SESS-2, OA-SESS-11).
+
+Events: `Reply` (a reply and the id of the request it answers), `Request` (a delivery: wakeup,
+PING, KEEPALIVE, forwarded message), `Invalid` (a correctly framed request whose message could not
+be read; answer it with RECEIVE_ERROR, OA-ERR-3) and `Closed` (the peer closed the connection).
+A remote protocol error is raised from `receive_data` and is sticky: every later call raises it
+again (OA-FRAME-9).
+"""
+
+from __future__ import annotations
+
+import enum
+from collections import deque
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, replace
+
+from openair.codec import from_frame, to_frame
+from openair.errors import (
+    ApiMisuseError,
+    ConnectionClosedError,
+    MessageInvalidError,
+    OpenAIRError,
+    RemoteProtocolError,
+)
+from openair.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
+from openair.message import Message
+from openair.times import AirTime
+
+#: Extensions this client implements (OA-EXT-1); a module declares a subset (OA-SESS-19).
+CLIENT_EXTENSIONS: frozenset[str] = frozenset({"noreply", "pipelining", "usec", "gettime"})
+
+DEFAULT_MAX_IN_FLIGHT = 256  # OA-LIM-5
+
+#: The acknowledgement a module sends for each kind of delivery (OA-SESS-11, OA-DELIV-4).
+_ANSWER_FOR: dict[str, str] = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
+
+
+class Role(enum.Enum):
+    """Which side of the request/reply pairing this end of the connection is (OA-SESS-28)."""
+
+    REQUESTER = "requester"
+    RESPONDER = "responder"
+
+
+class State(enum.Enum):
+    """The state of a `ClientConnection`."""
+
+    REQUESTER = "requester"
+    RESPONDER = "responder"
+    CLOSED = "closed"
+    ERROR = "error"
+
+
+class Action(enum.Enum):
+    """What a caller or the peer does to a connection (the columns of the state table)."""
+
+    SEND_REQUEST = "send_request"
+    SEND_NOTIFICATION = "send_notification"
+    RECEIVE = "receive_data"
+    ANSWER = "answer"
+    PEER_CLOSED = "peer_closed"
+    CLOSE = "close"
+    PROTOCOL_ERROR = "protocol_error"
+
+
+#: (state, action) -> next state. A missing key is API misuse (style: state machines are tables).
+_TRANSITIONS: dict[tuple[State, Action], State] = {
+    (State.REQUESTER, Action.SEND_REQUEST): State.REQUESTER,
+    (State.REQUESTER, Action.SEND_NOTIFICATION): State.RESPONDER,  # OA-SESS-7, OA-SESS-28
+    (State.REQUESTER, Action.RECEIVE): State.REQUESTER,
+    (State.REQUESTER, Action.PEER_CLOSED): State.CLOSED,
+    (State.REQUESTER, Action.CLOSE): State.CLOSED,
+    (State.REQUESTER, Action.PROTOCOL_ERROR): State.ERROR,
+    (State.RESPONDER, Action.RECEIVE): State.RESPONDER,
+    (State.RESPONDER, Action.ANSWER): State.RESPONDER,
+    (State.RESPONDER, Action.PEER_CLOSED): State.CLOSED,
+    (State.RESPONDER, Action.CLOSE): State.CLOSED,
+    (State.RESPONDER, Action.PROTOCOL_ERROR): State.ERROR,
+    (State.CLOSED, Action.RECEIVE): State.CLOSED,
+    (State.CLOSED, Action.PEER_CLOSED): State.CLOSED,
+    (State.CLOSED, Action.CLOSE): State.CLOSED,
+    (State.ERROR, Action.CLOSE): State.ERROR,
+    (State.ERROR, Action.PEER_CLOSED): State.ERROR,
+}
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Reply:
+    """A reply, paired with the request it answers (OA-SESS-33)."""
+
+    request_id: str
+    message: Message
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Request:
+    """A request the server sent: a wakeup, PING, KEEPALIVE or forwarded message.
+
+    `needs_answer` is false for a `noreply="yes"` delivery under the `noreply` extension
+    (OA-MSG-15); every other request must be answered, in order, with `answer()`.
+    """
+
+    message: Message
+    needs_answer: bool = True
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Invalid:
+    """A correctly framed request whose message could not be read; answer it (OA-ERR-3)."""
+
+    error: OpenAIRError
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Closed:
+    """The peer closed the connection; `unanswered` lists the requests that got no reply."""
+
+    unanswered: tuple[str, ...] = ()
+
+
+Event = Reply | Request | Invalid | Closed
+
+
+@dataclass(slots=True)
+class _Pending:
+    """A request sent and not yet answered."""
+
+    id: str
+    type: str
+
+
+@dataclass(slots=True)
+class _Counters:
+    """What went over the connection (for tests and diagnostics)."""
+
+    requests_sent: int = 0
+    replies_received: int = 0
+    requests_received: int = 0
+    answers_sent: int = 0
+    in_flight_peak: int = 0
+
+
+class ClientConnection:
+    """One connection of an OpenAIR module or client, as a sans-I/O state machine.
+
+    `now` returns nanoseconds since the epoch; it is called once per outgoing message, as the
+    last act before encoding (OA-TIME-2). `window` bounds the requests in flight: 1 for a legacy
+    server (OA-SESS-18), up to the server's `max-in-flight` with `pipelining` (OA-SESS-17).
+    `extensions` are the extensions in use on this connection (declared by the module and
+    advertised by the server, OA-GEN-2). `name` is written as `from` on answers.
+    """
+
+    def __init__(
+        self,
+        role: Role = Role.REQUESTER,
+        *,
+        now: Callable[[], int],
+        window: int = 1,
+        extensions: Iterable[str] = (),
+        name: str = "",
+        limits: FrameLimits | None = None,
+    ) -> None:
+        if window < 1:
+            raise ApiMisuseError(f"window must be at least 1, not {window}")
+        self._state = State(role.value)
+        self._now = now
+        self.window = window
+        self.extensions = frozenset(extensions)
+        self.name = name
+        self._reader = FrameReader(limits or FrameLimits())
+        self._in_flight: deque[_Pending] = deque()
+        self._to_answer: deque[Request | Invalid] = deque()
+        self._error: RemoteProtocolError | None = None
+        self.counters = _Counters()
+        #: The last message `send_request`/`send_notification` encoded (with its postedTime).
+        self.last_sent: Message | None = None
+
+    # -- state -------------------------------------------------------------------------------
+
+    @property
+    def state(self) -> State:
+        """The current state."""
+        return self._state
+
+    @property
+    def in_flight(self) -> int:
+        """How many requests were sent and not answered yet."""
+        return len(self._in_flight)
+
+    @property
+    def can_send(self) -> bool:
+        """True when a request may be sent now without exceeding the window."""
+        return self._state is State.REQUESTER and len(self._in_flight) < self.window
+
+    @property
+    def unanswered(self) -> int:
+        """How many received requests still wait for `answer()`."""
+        return len(self._to_answer)
+
+    def _transition(self, action: Action) -> None:
+        """Move to the next state, or raise when the table has no entry."""
+        nxt = _TRANSITIONS.get((self._state, action))
+        if nxt is None:
+            if self._state is State.CLOSED:
+                raise ConnectionClosedError(f"cannot {action.value}: the connection is closed")
+            if self._state is State.ERROR and self._error is not None:
+                raise ConnectionClosedError(f"cannot {action.value} after {self._error}")
+            raise ApiMisuseError(f"cannot {action.value} in state {self._state.value}")
+        self._state = nxt
+
+    # -- sending -----------------------------------------------------------------------------
+
+    def _stamp(self, msg: Message) -> Message:
+        """Set postedTime from the clock: the last act before encoding (OA-TIME-2)."""
+        posted = AirTime.from_ns(self._now(), with_usec="usec" in self.extensions)  # OA-TIME-5
+        return replace(msg, posted=posted)
+
+    def send_request(self, msg: Message) -> bytes:
+        """Return the frame for request `msg`, stamped with postedTime (OA-TIME-2).
+
+        A `noreply` message (allowed only under the `noreply` extension, OA-GEN-2) expects no
+        reply and does not count against the window. Raises ApiMisuseError when the window is
+        full (OA-SESS-18, OA-LIM-7) or on a responder connection (OA-SESS-28).
+        """
+        if self._state is State.REQUESTER:
+            if msg.noreply and "noreply" not in self.extensions:
+                raise ApiMisuseError("noreply needs the noreply extension")  # OA-GEN-2
+            if not msg.noreply and len(self._in_flight) >= self.window:
+                raise ApiMisuseError(f"{self.window} request(s) already in flight")  # OA-SESS-18
+        self._transition(Action.SEND_REQUEST)
+        stamped = self.last_sent = self._stamp(msg)
+        data = encode_frame(to_frame(stamped))
+        if not stamped.noreply:
+            self._in_flight.append(_Pending(id=stamped.id, type=stamped.type))
+            self.counters.in_flight_peak = max(self.counters.in_flight_peak, self.in_flight)
+        self.counters.requests_sent += 1
+        return data
+
+    def send_notification(self, msg: Message) -> bytes:
+        """Return the `Receive` frame that makes this a callback connection (OA-SESS-7).
+
+        No reply follows; from then on the server is the requester (OA-SESS-28).
+        """
+        if self._state is State.REQUESTER and self._in_flight:
+            raise ApiMisuseError("cannot turn a connection with requests in flight around")
+        self._transition(Action.SEND_NOTIFICATION)
+        self.last_sent = self._stamp(msg)
+        return encode_frame(to_frame(self.last_sent, FrameTag.RECEIVE))
+
+    def answer(
+        self,
+        request: Request | Invalid,
+        type: str | None = None,
+        *,
+        content: str = "",
+    ) -> bytes:
+        """Return the frame answering `request`, the oldest unanswered one (OA-SESS-2).
+
+        The default type is PING_SUCCESS for PING, KEEPALIVESUCCESS for KEEPALIVE, RECEIVE_ACCEPT
+        otherwise (OA-SESS-11, OA-DELIV-4, OA-KEEP-2), and RECEIVE_ERROR with `NAME: detail` for
+        an `Invalid` request (OA-ERR-2, OA-ERR-3). `isresponse` is the request's id (OA-SESS-1).
+        """
+        oldest = self._to_answer[0] if self._to_answer else None
+        if self._state is State.RESPONDER and oldest is not request:
+            raise ApiMisuseError("answer the oldest unanswered request first (OA-SESS-2)")
+        self._transition(Action.ANSWER)
+        self._to_answer.popleft()
+        if isinstance(request, Invalid):
+            reply = Message(
+                type=type or "RECEIVE_ERROR",
+                sender=self.name,
+                content=content or request.error.wire_text(),
+            )
+        else:
+            kind = type or _ANSWER_FOR.get(request.message.type, "RECEIVE_ACCEPT")
+            reply = request.message.reply(kind, sender=self.name, content=content)
+        self.counters.answers_sent += 1
+        return encode_frame(to_frame(self._stamp(reply)))
+
+    def close(self) -> None:
+        """Mark the connection closed by this side; later sends raise ConnectionClosedError."""
+        self._transition(Action.CLOSE)
+
+    # -- receiving ---------------------------------------------------------------------------
+
+    def receive_data(self, data: bytes) -> list[Event]:
+        """Feed received bytes (b"" = the peer closed) and return the events they complete.
+
+        Frames may be split and joined arbitrarily (OA-FRAME-11). A remote protocol error is
+        raised and becomes sticky (OA-FRAME-9); a connection that ends inside a frame raises
+        FrameTruncatedError (OA-FRAME-8).
+        """
+        if self._error is not None:
+            raise self._error
+        if not data:
+            return self._peer_closed()
+        self._transition(Action.RECEIVE)
+        if self._state is State.CLOSED:
+            return []  # closed by this side: late bytes are dropped
+        events: list[Event] = []
+        try:
+            self._reader.feed(data)
+            while (frame := self._reader.next_frame()) is not None:
+                events.append(self._event_for(frame))
+        except RemoteProtocolError as exc:
+            self._fail(exc)
+            raise
+        return events
+
+    def _peer_closed(self) -> list[Event]:
+        """Handle end of stream: a partial frame is FRAME_TRUNCATED (OA-FRAME-8)."""
+        if self._state is State.CLOSED:
+            return []
+        try:
+            self._reader.feed_eof()
+        except RemoteProtocolError as exc:
+            self._fail(exc)
+            raise
+        unanswered = tuple(p.id for p in self._in_flight)
+        self._in_flight.clear()
+        self._transition(Action.PEER_CLOSED)
+        return [Closed(unanswered=unanswered)]
+
+    def _fail(self, exc: RemoteProtocolError) -> None:
+        """Enter the sticky error state (OA-FRAME-9)."""
+        self._transition(Action.PROTOCOL_ERROR)
+        self._error = exc
+
+    def _event_for(self, frame: Frame) -> Event:
+        """Turn one complete frame into an event."""
+        if self._state is State.REQUESTER:
+            return self._reply_for(from_frame(frame))
+        try:
+            msg = from_frame(frame)
+        except RemoteProtocolError as exc:
+            if exc.closes:
+                raise
+            event: Request | Invalid = Invalid(error=exc)  # OA-ERR-3: the connection stays usable
+        else:
+            noreply = msg.noreply and "noreply" in self.extensions  # OA-MSG-15
+            event = Request(message=msg, needs_answer=not noreply)
+        self.counters.requests_received += 1
+        if not isinstance(event, Request) or event.needs_answer:
+            self._to_answer.append(event)
+        return event
+
+    def _reply_for(self, msg: Message) -> Reply:
+        """Pair a reply with the oldest unanswered request (OA-SESS-33)."""
+        if not self._in_flight:
+            raise MessageInvalidError(f"reply {msg.type!r} with no request in flight")
+        head = self._in_flight[0]
+        # OA-SESS-33: an empty isresponse is accepted (Psyclone's KEEPALIVESUCCESS); a non-empty
+        # one that names another request means the replies are out of order (OA-SESS-2).
+        if msg.isresponse and msg.isresponse != head.id:
+            raise MessageInvalidError(
+                f"reply {msg.type!r} answers {msg.isresponse!r}, expected {head.id!r}"
+            )
+        self._in_flight.popleft()
+        self.counters.replies_received += 1
+        return Reply(request_id=head.id, message=msg)

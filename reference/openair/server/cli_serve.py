@@ -29,7 +29,15 @@ async def _run(options: ServerOptions) -> None:
     boards = ", ".join(server.whiteboards)
     click.echo(f"listening on {server.host}:{server.port} (whiteboards: {boards})")
     sys.stdout.flush()
-    await server.serve_forever()
+    try:
+        await server.serve_forever()
+    finally:
+        # The loop is about to close: a late second signal (a supervisor repeating SIGTERM)
+        # must not hit asyncio's wakeup fd; the stop is already done, so ignore it.
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            with contextlib.suppress(NotImplementedError, ValueError):
+                loop.remove_signal_handler(sig)
+                signal.signal(sig, signal.SIG_IGN)
 
 
 @click.command("serve")

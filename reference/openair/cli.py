@@ -27,11 +27,13 @@ def _register() -> None:
     """Add every command to the group (called once at import)."""
     from openair.server.cli_serve import serve
     from openair_conformance.cli import conform
+    from openair_conformance.client_cli import conform_client
 
     main.add_command(serve)
     for command in COMMANDS:
         main.add_command(command)
     main.add_command(conform)
+    main.add_command(conform_client)
 
 
 _register()

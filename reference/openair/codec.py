@@ -29,6 +29,7 @@ from lxml import etree
 
 from openair._errors_base import OpenAIRError
 from openair.errors import ApiMisuseError, MessageInvalidError, XmlMalformedError
+from openair.fastcodec import fast_decode, fast_encode
 from openair.framing import Frame, FrameTag
 from openair.message import Message, Reference, Slot
 from openair.times import AirTime
@@ -82,8 +83,19 @@ def decode_message(
     """Parse the XML of a Message or Receive frame into a `Message` carrying `chunks`.
 
     Raises XmlMalformedError (also when the root is not `message`, OA-MSG-1), XmlForbiddenError,
-    XmlTooDeepError and MessageInvalidError.
+    XmlTooDeepError and MessageInvalidError. Simple documents take the strict fast path of
+    `fastcodec`, which gives the same `Message`; anything else is parsed with lxml.
     """
+    fast = fast_decode(xml, chunks, limits)
+    if fast is not None:
+        return fast
+    return decode_with_lxml(xml, chunks, limits)
+
+
+def decode_with_lxml(
+    xml: bytes, chunks: tuple[bytes, ...] = (), limits: XmlLimits | None = None
+) -> Message:
+    """Decode like `decode_message` but always with lxml (the reference for the fast path)."""
     root = parse_xml(xml, limits)  # UTF-8 only (OA-MSG-1), hardened (OA-SEC-1/2)
     if _local(root.tag) != "message":  # OA-MSG-1
         raise XmlMalformedError(f"root element is <{root.tag}>, not <message>")
@@ -395,6 +407,11 @@ def time_to_element(name: str, t: AirTime) -> etree._Element:
 # ----------------------------------------------------------------------------------- encoding
 
 
+def encode_with_lxml(msg: Message) -> bytes:
+    """Encode like `encode_message` but always with lxml (the reference for the fast path)."""
+    return bytes(etree.tostring(message_to_element(msg), encoding="UTF-8"))
+
+
 def encode_message(msg: Message) -> bytes:
     """Write `msg` in canonical form (spec 3.5): UTF-8 bytes, no XML declaration.
 
@@ -402,7 +419,10 @@ def encode_message(msg: Message) -> bytes:
     1.0 forbids (OA-MSG-14), XML content that is not well-formed, an unknown slot whose name is
     not an XML name or shadows a known slot.
     """
-    return bytes(etree.tostring(message_to_element(msg), encoding="UTF-8"))
+    fast = fast_encode(msg)  # byte-identical for messages without embedded XML
+    if fast is not None:
+        return fast
+    return encode_with_lxml(msg)
 
 
 def to_frame(msg: Message, tag: FrameTag = FrameTag.MESSAGE) -> Frame:

@@ -17,6 +17,8 @@ from openair._errors_base import OpenAIRError
 from openair.codec import message_from_element, message_to_element
 from openair.content import Phase
 from openair.errors import ContentInvalidError, MessageInvalidError
+from openair.fastcodec import fast_encode_str, message_with, text_slot_xml, time_xml
+from openair.framing import Frame, FrameTag, encode_frame
 from openair.message import Message
 from openair.objects import (
     attr,
@@ -29,9 +31,20 @@ from openair.objects import (
     single_child,
 )
 from openair.registration import phase_spec_element, read_phase
+from openair.times import AirTime
 from openair.xmlsafe import local_name
 
-__all__ = ["WAKEUP_TYPE", "Wakeup", "build_wakeup", "parse_wakeup"]
+__all__ = [
+    "WAKEUP_TYPE",
+    "EncodedCopies",
+    "Wakeup",
+    "assemble_wakeup",
+    "build_wakeup",
+    "collection_xml",
+    "parse_wakeup",
+    "phase_spec_xml",
+    "stored_xml",
+]
 
 WAKEUP_TYPE = "AIR.Instruct.Wakeup"
 TRIGGER_MESSAGE = "TriggerMessage"
@@ -94,6 +107,142 @@ def build_wakeup(
         content=serialize(root),
         content_is_xml=True,
     )
+
+
+# --- the fast writer: the same content and bytes as build_wakeup, spliced from cached parts ---
+
+_EMPTY_COLLECTION = "<objectcollection/>"  # what lxml writes for an empty collection
+_TRIGGER_OPEN = f'<objectdictionary><object name="{TRIGGER_MESSAGE}">'
+_RETRIEVED_OPEN = f'</object><object name="{RETRIEVED_MESSAGES}">'
+_PHASE_OPEN = f'</object><object name="{PHASE_SPEC}">'
+_CLOSE = "</object></objectdictionary>"
+
+
+def stored_xml(msg: Message) -> str:
+    """Return `msg` as XML text exactly as it appears inside a wakeup (canonical form)."""
+    fast = fast_encode_str(msg)
+    return fast if fast is not None else serialize(message_to_element(msg))
+
+
+class EncodedCopies:
+    """Remember the XML of recently encoded stored copies, by identity (bounded).
+
+    A stored copy is immutable, so its XML never changes; a registration that retrieves the
+    latest messages finds the copies encoded when they were posted.
+    """
+
+    def __init__(self, size: int = 1024) -> None:
+        self._size = size
+        self._xml: dict[int, tuple[Message, str]] = {}
+
+    def xml(self, msg: Message) -> str:
+        """Return `stored_xml(msg)`, encoding it only once while it stays in the cache."""
+        hit = self._xml.get(id(msg))
+        if hit is not None and hit[0] is msg:
+            return hit[1]
+        text = stored_xml(msg)
+        if len(self._xml) >= self._size:
+            del self._xml[next(iter(self._xml))]  # the oldest entry
+        self._xml[id(msg)] = (msg, text)  # the reference keeps id(msg) from being reused
+        return text
+
+
+def collection_xml(msgs: Sequence[Message], copies: EncodedCopies | None = None) -> str:
+    """Return the RetrievedMessages `<objectcollection>` of `msgs` (OA-WAKE-3)."""
+    if not msgs:
+        return _EMPTY_COLLECTION
+    encode = copies.xml if copies is not None else stored_xml
+    inner = "".join(f"<object>{encode(m)}</object>" for m in msgs)
+    return f"<objectcollection>{inner}</objectcollection>"
+
+
+def phase_spec_xml(phase: Phase | None, *, module: str, lasttrigger: str) -> str:
+    """Return the PhaseSpec `<phase>` of a wakeup (OA-WAKE-4); callers may cache it."""
+    return serialize(phase_spec_element(phase, module=module, lasttrigger=lasttrigger))
+
+
+def assemble_wakeup(
+    *,
+    trigger_xml: str,
+    retrieved_xml: str,
+    phase_xml: str,
+    whiteboard: str,
+    module: str,
+    id: str,
+    posted: AirTime,
+) -> tuple[Message, bytes | None]:
+    """Build the wakeup `build_wakeup` would (posted at `posted`) and its Message frame bytes.
+
+    The parts are the outputs of `stored_xml`, `collection_xml` and `phase_spec_xml`, so the
+    content is the text lxml would write; the frame is None when only the lxml writer can say
+    whether the message can be written (then the sender encodes it as usual).
+    """
+    content = (
+        f"{_TRIGGER_OPEN}{trigger_xml}{_RETRIEVED_OPEN}{retrieved_xml}"
+        f"{_PHASE_OPEN}{phase_xml}{_CLOSE}"
+    )
+    msg = message_with(
+        type=WAKEUP_TYPE,
+        id=id,
+        sender=whiteboard,
+        to=module,
+        stored=whiteboard,
+        posted=posted,
+        language="xml",
+        content=content,
+        content_is_xml=True,
+    )
+    envelope = _envelope(whiteboard, module)
+    id_xml = text_slot_xml("id", id)
+    if envelope is None or id_xml is None:
+        return msg, None  # only the lxml writer can say what is wrong
+    head, middle = envelope
+    text = f"{head}{id_xml}{middle}{time_xml('postedTime', posted)}{_CONTENT_OPEN}{content}{_END}"
+    return msg, frame_bytes(text.encode("utf-8"))
+
+
+_CONTENT_OPEN = '<content language="xml">'
+_END = "</content></message>"
+_ENVELOPES_MAX = 4096
+_envelopes: dict[tuple[str, str], tuple[str, str] | None] = {}
+
+
+def _envelope(whiteboard: str, module: str) -> tuple[str, str] | None:
+    """Return the text of a wakeup around its id, and between id and postedTime (cached).
+
+    Cut from what the canonical writer makes of a wakeup with an empty id and no time, so the
+    spliced wakeup is the written one; None when the writer would leave it to lxml.
+    """
+    key = (whiteboard, module)
+    if key in _envelopes:
+        return _envelopes[key]
+    probe = message_with(
+        type=WAKEUP_TYPE,
+        id="",
+        sender=whiteboard,
+        to=module,
+        stored=whiteboard,
+        language="xml",
+        content="<x/>",
+        content_is_xml=True,
+    )
+    text = fast_encode_str(probe, xml_content=True)
+    envelope = None
+    if text is not None and text.endswith(f"{_CONTENT_OPEN}<x/>{_END}"):
+        head, _, rest = text.partition("<id/>")
+        envelope = head, rest[: -len(f"{_CONTENT_OPEN}<x/>{_END}")]
+    if len(_envelopes) >= _ENVELOPES_MAX:
+        _envelopes.clear()
+    _envelopes[key] = envelope
+    return envelope
+
+
+_MESSAGE_HEADER = encode_frame(Frame(tag=FrameTag.MESSAGE))  # tag and a zero length
+
+
+def frame_bytes(xml: bytes) -> bytes:
+    """Return the Message frame of `xml` (OA-FRAME-1, OA-FRAME-3), as `encode_frame` would."""
+    return _MESSAGE_HEADER[:8] + len(xml).to_bytes(4, "little") + xml
 
 
 def _objects(root: etree._Element) -> dict[str, etree._Element | None]:

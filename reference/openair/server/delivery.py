@@ -19,8 +19,10 @@ import contextlib
 import heapq
 import logging
 import time
+from collections import deque
 from collections.abc import Awaitable, Callable, Coroutine
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Protocol
 
 from openair.errors import ConnectionClosedError, OpenAIRError
@@ -76,6 +78,17 @@ class ModuleCounters:
     retried: int = 0
 
 
+@dataclass(slots=True, eq=False)
+class _Sent:
+    """A delivery on the wire, waiting for its acknowledgement (OA-DELIV-4) until `deadline`."""
+
+    attempt: _Attempt
+    conn: ServerConnection
+    msg: Message
+    deadline: float  # loop time (OA-DELIV-11)
+    settled: bool = False
+
+
 @dataclass(order=True, slots=True)
 class _Attempt:
     """A queue item on its way out; ordered by arrival so retries keep their order."""
@@ -94,7 +107,13 @@ class ModuleDelivery:
         self.queue = DeliveryQueue(capacity=dispatcher.capacity)
         self.counters = ModuleCounters()
         self._retry: list[_Attempt] = []
-        self._in_flight: set[asyncio.Task[None]] = set()
+        # Deliveries awaiting their acknowledgement, and retries sleeping their back-off: each
+        # holds a slot of the window until it ends.
+        self._in_flight: set[_Sent | asyncio.Task[None]] = set()
+        self._sent: deque[_Sent] = deque()  # in send order: the oldest deadline first
+        self._timer: asyncio.TimerHandle | None = None
+        self._last_conn: ServerConnection | None = None  # written to since the last flush
+        self._loop = asyncio.get_running_loop()
         self._wake = asyncio.Event()
         self._room = asyncio.Event()
         self._outbound: ServerConnection | None = None
@@ -114,6 +133,7 @@ class ModuleDelivery:
             priority=delivery.priority,
             wb_priority=delivery.wb_priority,
             due_ns=delivery.due_ns,
+            wire=delivery.wire,
         )
         self._wake.set()
         return victim
@@ -125,26 +145,117 @@ class ModuleDelivery:
     # -- the task -----------------------------------------------------------------------------
 
     async def _run(self) -> None:
+        # The loop runs without suspending while items are ready and the window has room, so a
+        # burst of wakeups goes out in one event-loop turn.
         while True:
-            await self._wait_for_room()
-            attempt = await self._next()
+            if len(self._in_flight) >= self._window():
+                self._flush()
+                await self._wait_for_room()
+            attempt = self._take()
+            if attempt is None:
+                self._flush()  # the burst is over: send it before waiting
+                attempt = await self._next()
             self._sending = 1
             try:
-                conn = await self._path()
+                conn = self._callback_path()
+                if conn is None:
+                    conn = await self._path()
                 if conn is None:
                     self._failed(attempt, "no connection to the module")
                     continue
-                sent = self._wire_form(attempt.item.message)
-                self._spawn(self._await_ack(attempt, conn, sent, conn.send_request(sent)))
+                item = attempt.item
+                sent = self._wire_form(item.message)
+                wire = item.wire if sent is item.message else None  # written by the router
+                self._watch(attempt, conn, sent, wire)
             finally:
                 self._sending = 0
                 self._d.idle_check()
 
     def _spawn(self, coro: Coroutine[object, object, None]) -> None:
         """Run one attempt's follow-up; it holds a slot of the window until it ends."""
-        task = asyncio.get_running_loop().create_task(coro)
+        task = self._loop.create_task(coro)
         self._in_flight.add(task)
         task.add_done_callback(self._finished)
+
+    def _flush(self) -> None:
+        conn = self._last_conn
+        if conn is not None:
+            self._last_conn = None
+            conn.flush()
+
+    def _watch(
+        self, attempt: _Attempt, conn: ServerConnection, msg: Message, wire: bytes | None
+    ) -> None:
+        """Send, then wait for the acknowledgement (OA-DELIV-4) within the deadline (OA-DELIV-11).
+
+        A callback and one timer per module, not a task per delivery: replies are paired in
+        order (OA-SESS-33), so the oldest delivery in flight always has the earliest deadline.
+        """
+        entry = _Sent(
+            attempt=attempt,
+            conn=conn,
+            msg=msg,
+            deadline=self._loop.time() + self._d.options.deadline_s,
+        )
+        self._in_flight.add(entry)
+        self._sent.append(entry)
+        if self._timer is None:
+            self._timer = self._loop.call_at(entry.deadline, self._check_deadlines)
+        self._last_conn = conn
+        conn.send_request_cb(msg, wire, partial(self._acked, entry))
+
+    def _acked(self, entry: _Sent, reply: Message | None, error: BaseException | None) -> None:
+        """Judge the reply to one delivery: delivered, refused, or retried (OA-DELIV-7)."""
+        if entry.settled:
+            return  # timed out or stopped already
+        entry.settled = True
+        while self._sent and self._sent[0].settled:
+            self._sent.popleft()
+        try:
+            self._judge(entry, reply, error)
+        finally:
+            self._in_flight.discard(entry)
+            self._room.set()
+            self._d.idle_check()
+
+    def _judge(self, entry: _Sent, reply: Message | None, error: BaseException | None) -> None:
+        msg = entry.msg
+        if isinstance(error, asyncio.CancelledError):
+            return  # passed over as an unanswered KEEPALIVE would be (OA-KEEP-3)
+        if isinstance(error, ConnectionClosedError):
+            reason = "the connection closed before the acknowledgement"
+            self._spawn(self._retry_later(entry.attempt, reason))
+        elif isinstance(error, OpenAIRError):  # an unreadable reply: counted, not retried
+            self._refused(msg, error.wire_text())
+        elif error is not None or reply is None:
+            log.error("event=delivery_error module=%s detail=%r", self.name, error)
+        elif msg.noreply or reply.type == _ACK_FOR.get(msg.type, "RECEIVE_ACCEPT"):
+            self.counters.delivered += 1
+            self._d.host.delivered(self.name, 1)
+        else:
+            self._refused(msg, f"{reply.type}: {reply.content[:200]}")
+
+    def _check_deadlines(self) -> None:
+        """Retry every delivery whose acknowledgement is overdue (OA-DELIV-11)."""
+        self._timer = None
+        now = self._loop.time()
+        while self._sent:
+            entry = self._sent[0]
+            if not entry.settled and entry.deadline > now:
+                break
+            self._sent.popleft()
+            if not entry.settled:
+                self._expire(entry)
+        if self._sent:
+            self._timer = self._loop.call_at(self._sent[0].deadline, self._check_deadlines)
+
+    def _expire(self, entry: _Sent) -> None:
+        entry.settled = True  # a late reply is ignored
+        entry.conn.close()  # OA-DELIV-11: a late acknowledgement could no longer be paired
+        self._spawn(self._retry_later(entry.attempt, "no acknowledgement before the deadline"))
+        self._in_flight.discard(entry)
+        self._room.set()
+        self._d.idle_check()
 
     def _wire_form(self, msg: Message) -> Message:
         """Drop `noreply` towards a module that did not declare it (OA-GEN-2, OA-MSG-15).
@@ -175,19 +286,25 @@ class ModuleDelivery:
             self._room.clear()
             await self._room.wait()
 
+    def _take(self) -> _Attempt | None:
+        """Return a retry first, else the first eligible queued item, else None."""
+        if self._retry:
+            return heapq.heappop(self._retry)
+        if self._has_path():
+            item = self.queue.pop(time.time_ns())
+            if item is not None:
+                return _Attempt(seq=item.seq, item=item)
+        return None
+
     async def _next(self) -> _Attempt:
-        """Return the next attempt: a retry first, else the first eligible queued item."""
+        """Wait for the next attempt: a retry first, else the first eligible queued item."""
         while True:
             self._wake.clear()
-            if self._retry:
-                return heapq.heappop(self._retry)
-            now = time.time_ns()
-            if self._has_path():
-                item = self.queue.pop(now)
-                if item is not None:
-                    return _Attempt(seq=item.seq, item=item)
+            attempt = self._take()
+            if attempt is not None:
+                return attempt
             due = self.queue.next_due()
-            timeout = None if due is None else max(due - now, 0) / 1e9
+            timeout = None if due is None else max(due - time.time_ns(), 0) / 1e9
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(self._wake.wait(), timeout)
 
@@ -195,6 +312,14 @@ class ModuleDelivery:
         """Whether the module can be reached at all (else its deliveries wait, bounded)."""
         info = self._d.host.module_info(self.name)
         return info is not None and (info.callback is not None or info.port > 0)
+
+    def _callback_path(self) -> ServerConnection | None:
+        """Return the module's open callback connection, if it has one (OA-DELIV-1)."""
+        info = self._d.host.module_info(self.name)
+        if info is None or info.callback is None:
+            return None
+        conn = self._d.host.connection(info.callback)
+        return conn if conn is not None and not conn.is_closing else None
 
     async def _path(self) -> ServerConnection | None:
         """Return the callback connection, else a connection to the listening port (OA-DELIV-1)."""
@@ -233,32 +358,6 @@ class ModuleDelivery:
         conn = self._d.host.connection(info.conn) if info.conn is not None else None
         return conn.peer[0] if conn is not None and conn.peer[0] else "127.0.0.1"
 
-    async def _await_ack(
-        self,
-        attempt: _Attempt,
-        conn: ServerConnection,
-        msg: Message,
-        future: asyncio.Future[Message],
-    ) -> None:
-        """Wait for the acknowledgement (OA-DELIV-4) within the deadline (OA-DELIV-11)."""
-        try:
-            reply = await asyncio.wait_for(future, self._d.options.deadline_s)
-        except TimeoutError:
-            conn.close()  # OA-DELIV-11: a late acknowledgement could no longer be paired
-            await self._retry_later(attempt, "no acknowledgement before the deadline")
-            return
-        except ConnectionClosedError:
-            await self._retry_later(attempt, "the connection closed before the acknowledgement")
-            return
-        except OpenAIRError as exc:  # an unreadable reply: counted, not retried (OA-DELIV-7)
-            self._refused(msg, exc.wire_text())
-            return
-        if msg.noreply or reply.type == _ACK_FOR.get(msg.type, "RECEIVE_ACCEPT"):
-            self.counters.delivered += 1
-            self._d.host.delivered(self.name, 1)
-        else:
-            self._refused(msg, f"{reply.type}: {reply.content[:200]}")
-
     def _refused(self, msg: Message, detail: str) -> None:
         self.counters.refused += 1
         log.info("event=delivery_refused module=%s type=%s detail=%r", self.name, msg.type, detail)
@@ -295,7 +394,17 @@ class ModuleDelivery:
     async def stop(self) -> int:
         """Cancel the task and everything in flight; return how many deliveries were left."""
         left = self.pending
-        tasks = [self.task, *self._in_flight]
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        tasks = [self.task]
+        for waiting in self._in_flight:
+            if isinstance(waiting, _Sent):
+                waiting.settled = True  # its reply, if one comes, is ignored
+            else:
+                tasks.append(waiting)
+        self._in_flight.clear()
+        self._sent.clear()
         for task in tasks:
             task.cancel()
         await asyncio.gather(*tasks, return_exceptions=True)

@@ -28,6 +28,7 @@ import enum
 import logging
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -96,13 +97,31 @@ class ConnectionHost(Protocol):
         """Forget a closed connection."""
 
 
+#: Called with the reply, or with the error that ends the wait (a decode error, the connection
+#: closing, CancelledError when an unanswered KEEPALIVE is passed over).
+ReplyCallback = Callable[[Message | None, BaseException | None], None]
+
+
 @dataclass(slots=True)
 class _Pending:
-    """A request the server sent on a requester connection and whose reply it awaits."""
+    """A request the server sent on a requester connection and whose reply it awaits.
+
+    The reply goes to `future`, or to `callback` (the dispatcher's cheaper path).
+    """
 
     id: str
     type: str
-    future: asyncio.Future[Message]
+    future: asyncio.Future[Message] | None
+    callback: ReplyCallback | None = None
+
+    def fail(self, error: BaseException) -> None:
+        if self.callback is not None:
+            self.callback(None, error)
+        elif self.future is not None and not self.future.done():
+            if isinstance(error, asyncio.CancelledError):
+                self.future.cancel()
+            else:
+                self.future.set_exception(error)
 
 
 class ServerConnection(asyncio.Protocol):
@@ -126,6 +145,8 @@ class ServerConnection(asyncio.Protocol):
         self._reading_paused = False
         self._written = 0
         self._unflushed: deque[int] = deque()  # end offsets of replies not yet flushed
+        self._batch: list[bytes] = []  # frames to write at the end of this loop turn
+        self._batch_bytes = 0
         self._last_byte = time.monotonic()
         self.last_traffic = self._last_byte
         self._deadline: asyncio.TimerHandle | None = None
@@ -173,9 +194,7 @@ class ServerConnection(asyncio.Protocol):
                 handle.cancel()
         reason = f"connection lost: {exc}" if exc else "connection closed"
         while self._pending:
-            pending = self._pending.popleft()
-            if not pending.future.done():
-                pending.future.set_exception(ConnectionClosedError(reason))
+            self._pending.popleft().fail(ConnectionClosedError(reason))
         if self.role is not Role.OUTBOUND:
             self.host.connection_lost(self)
         if not self.closed.done():
@@ -252,7 +271,7 @@ class ServerConnection(asyncio.Protocol):
         # OA-KEEP-3: an unanswered KEEPALIVE never blocks the pairing of later replies.
         keepalive_reply = msg is not None and msg.type == "KEEPALIVESUCCESS"
         while self._pending and self._pending[0].type == "KEEPALIVE" and not keepalive_reply:
-            self._pending.popleft().future.cancel()
+            self._pending.popleft().fail(asyncio.CancelledError())
         if not self._pending:
             log.warning(
                 "event=protocol_error conn=%d module=%s detail=%s",
@@ -261,8 +280,12 @@ class ServerConnection(asyncio.Protocol):
                 "reply with no request in flight",
             )
             return
-        future = self._pending.popleft().future
-        if future.done():
+        pending = self._pending.popleft()
+        if pending.callback is not None:
+            pending.callback(msg, error)
+            return
+        future = pending.future
+        if future is None or future.done():
             return
         if error is not None:
             future.set_exception(error)
@@ -278,19 +301,40 @@ class ServerConnection(asyncio.Protocol):
             type=kind, sender=self.name, to=sender, isresponse=ident, content=text, posted=now
         )
 
-    def _send(self, msg: Message, tag: FrameTag = FrameTag.MESSAGE) -> bool:
-        """Write one message; return False when the connection is closing or was cut off."""
+    def _send(
+        self, msg: Message, tag: FrameTag = FrameTag.MESSAGE, wire: bytes | None = None
+    ) -> bool:
+        """Write one message; return False when the connection is closing or was cut off.
+
+        `wire` is the message's Message frame when it was written already.
+        """
         if self._closing or self.transport is None:
             return False
-        try:
-            data = encode_frame(to_frame(msg, tag))
-        except ApiMisuseError as exc:  # OA-MSG-14: content XML cannot carry
-            log.error("event=encode_error conn=%d type=%s detail=%s", self.conn_id, msg.type, exc)
-            data = encode_frame(to_frame(self._error_reply("RECEIVE_ERROR", "", msg.isresponse)))
-        self.transport.write(data)
+        if wire is not None and tag is FrameTag.MESSAGE:
+            data = wire
+        else:
+            try:
+                data = encode_frame(to_frame(msg, tag))
+            except ApiMisuseError as exc:  # OA-MSG-14: content XML cannot carry
+                log.error(
+                    "event=encode_error conn=%d type=%s detail=%s", self.conn_id, msg.type, exc
+                )
+                reply = self._error_reply("RECEIVE_ERROR", "", msg.isresponse)
+                data = encode_frame(to_frame(reply))
+        if self.role is Role.RESPONDER:
+            self.transport.write(data)  # at once: OA-LIM-5 counts what the peer has not read
+            buffered = self.transport.get_write_buffer_size()
+        else:
+            # As the requester (deliveries), the frames of one event-loop turn go out in one
+            # write: one system call for a burst of wakeups instead of one each.
+            if not self._batch:
+                asyncio.get_running_loop().call_soon(self._flush)
+            self._batch.append(data)
+            self._batch_bytes += len(data)
+            buffered = self.transport.get_write_buffer_size() + self._batch_bytes
         self._written += len(data)
         self.last_traffic = time.monotonic()
-        if self.transport.get_write_buffer_size() > self.host.flow.hard_cap:
+        if buffered > self.host.flow.hard_cap:
             log.warning(
                 "event=cut_off conn=%d peer=%s:%d detail=%s",
                 self.conn_id,
@@ -303,6 +347,12 @@ class ServerConnection(asyncio.Protocol):
             self._unflushed.append(self._written)
         return True
 
+    def _flush(self) -> None:
+        """Write the frames batched in this event-loop turn."""
+        batch, self._batch, self._batch_bytes = self._batch, [], 0
+        if batch and self.transport is not None and not self._closing:
+            self.transport.write(batch[0] if len(batch) == 1 else b"".join(batch))
+
     def _in_flight(self) -> int:
         """Count the replies still waiting in the write buffer (OA-LIM-5's requests in flight)."""
         if self.transport is None:
@@ -312,9 +362,10 @@ class ServerConnection(asyncio.Protocol):
             self._unflushed.popleft()
         return len(self._unflushed)
 
-    def send_request(self, msg: Message) -> asyncio.Future[Message]:
+    def send_request(self, msg: Message, wire: bytes | None = None) -> asyncio.Future[Message]:
         """Send a request on a CALLBACK or OUTBOUND connection; return its reply's future.
 
+        `wire`, when given, is the Message frame of `msg` already written (sent as it is).
         A `noreply` message (only sent to a module that declared `noreply`) expects no reply:
         its future is already resolved with the message itself (OA-MSG-15).
         """
@@ -326,12 +377,39 @@ class ServerConnection(asyncio.Protocol):
             return future
         if not msg.noreply:
             self._pending.append(_Pending(id=msg.id, type=msg.type, future=future))
-        if not self._send(msg):
+        if not self._send(msg, wire=wire):
             if not future.done():
                 future.set_exception(ConnectionClosedError("the connection was cut off"))
         elif msg.noreply:
             future.set_result(msg)
         return future
+
+    def send_request_cb(self, msg: Message, wire: bytes | None, callback: ReplyCallback) -> None:
+        """Send a request like `send_request`, but hand the outcome to `callback` (no future).
+
+        The callback runs at most once, possibly before this returns (a closed connection,
+        `noreply`).
+        """
+        if self.role is Role.RESPONDER:
+            raise ApiMisuseError("the server is not the requester on this connection")
+        if self._closing:
+            callback(None, ConnectionClosedError("the connection is closed"))
+            return
+        pending = None
+        if not msg.noreply:
+            pending = _Pending(id=msg.id, type=msg.type, future=None, callback=callback)
+            self._pending.append(pending)
+        if not self._send(msg, wire=wire):
+            if pending is not None:
+                pending.callback = None  # it keeps its place in the pairing, but says nothing
+            callback(None, ConnectionClosedError("the connection was cut off"))
+        elif msg.noreply:
+            callback(msg, None)
+
+    def flush(self) -> None:
+        """Write the frames batched so far now (the dispatcher calls it before it waits)."""
+        if self._batch:
+            self._flush()
 
     @property
     def in_flight(self) -> int:
@@ -406,6 +484,7 @@ class ServerConnection(asyncio.Protocol):
             if not linger:
                 self.transport.close()  # end a lingering close now (at shutdown)
             return
+        self._flush()  # batched deliveries go out before the end of stream
         self._closing = True
         self.resume_writing()
         transport = self.transport
@@ -420,6 +499,8 @@ class ServerConnection(asyncio.Protocol):
     def abort(self) -> None:
         """End the connection at once, dropping anything unsent."""
         self._closing = True
+        self._batch.clear()
+        self._batch_bytes = 0
         if self.transport is not None:
             self.transport.abort()
 

@@ -36,6 +36,7 @@ class QueueItem:
     wb_priority: float
     due_ns: int = 0
     seq: int = 0
+    wire: bytes | None = field(default=None, compare=False, repr=False)  # frame of `message`
 
     @property
     def order(self) -> tuple[float, float, int]:
@@ -80,9 +81,18 @@ class DeliveryQueue:
         return len(self._waiting)
 
     def push(
-        self, message: Message, *, priority: float, wb_priority: float = 1.0, due_ns: int = 0
+        self,
+        message: Message,
+        *,
+        priority: float,
+        wb_priority: float = 1.0,
+        due_ns: int = 0,
+        wire: bytes | None = None,
     ) -> QueueItem | None:
-        """Queue `message`; return the item dropped for lack of room, if any (OA-DELIV-9)."""
+        """Queue `message`; return the item dropped for lack of room, if any (OA-DELIV-9).
+
+        `wire` is the message's frame when it was already written (sent as it is).
+        """
         self._seq += 1
         item = QueueItem(
             message=message,
@@ -90,6 +100,7 @@ class DeliveryQueue:
             wb_priority=wb_priority,
             due_ns=due_ns,
             seq=self._seq,
+            wire=wire,
         )
         self._items[item.seq] = item
         heapq.heappush(self._victims, (-priority, item.seq))

@@ -14,7 +14,7 @@ woken module (OA-WAKE-5).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 from openair.content import ANY_WHITEBOARD, Phase, Registration, TcpLocation
 from openair.errors import (
@@ -44,12 +44,19 @@ from openair.server.store import HistoryStore
 from openair.server.whiteboard import Whiteboard, derive
 from openair.times import AirTime
 from openair.types import validate_type
-from openair.wakeup import build_wakeup
+from openair.wakeup import (
+    EncodedCopies,
+    assemble_wakeup,
+    build_wakeup,
+    collection_xml,
+    phase_spec_xml,
+)
 
 __all__ = ["ConnId", "Delivery", "ModuleInfo", "Outcome", "Router"]
 
 _NS_PER_MS = 1_000_000
 _TYPE_CACHE_SIZE = 4096
+_PHASE_CACHE_SIZE = 256  # PhaseSpec texts kept per registration (one per lasttrigger)
 _SYSTEM = "Psyclone"  # the sender of lifecycle notices (OA-SESS-15, OA-SESS-31)
 _PHASE_SENDER = "ContextsAndPhases"  # the sender of phase updates (OA-WAKE-9)
 
@@ -63,6 +70,8 @@ class Delivery:
     due_ns: int
     priority: float  # the carried message's effective priority (OA-PRIO-1)
     wb_priority: float  # the sending whiteboard's priority (OA-PRIO-2)
+    # The Message frame of `message` when the router already wrote it (a wakeup), else None.
+    wire: bytes | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -88,6 +97,9 @@ class _Triggers:
     # Per trigger: its pattern, its whiteboard folded ("" = any, OA-TRIG-2), its after (ms).
     entries: tuple[tuple[str, str, int], ...]
     allow_self: bool
+    phase: Phase | None  # the registration's phase in force (OA-REG-10)
+    # PhaseSpec XML of the phase in force, by lasttrigger (the registration never changes here).
+    phase_xml: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass(slots=True)
@@ -140,6 +152,7 @@ class Router:
         self._valid_types: set[str] = set()
         self._counters: dict[str, _ModuleCounters] = {}
         self._lost_notices = 0
+        self._copies = EncodedCopies()
         for name in self._configured:
             self._reindex(name)
         self._components = self._component_tables()
@@ -332,6 +345,8 @@ class Router:
         except StoreFailedError as err:  # OA-WB-3: not stored, so not acknowledged
             return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
         deliveries = self._decide(board, stored, now_ns)
+        if msg.noreply and self._noreply:  # OA-MSG-15, OA-WB-8: handle() would drop the ack
+            return Outcome(deliveries=deliveries)
         ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=board.name, now_ns=now_ns)  # OA-WB-3
         return Outcome(replies=(ack,), deliveries=deliveries)
 
@@ -348,34 +363,58 @@ class Router:
             return ()
         base_ns = board.last_received_ns  # the receivedTime stamped on `stored`
         posted = cmd.ms_time(now_ns)
+        trigger_xml = self._copies.xml(stored)  # the stored copy is written once per post
         deliveries: list[Delivery] = []
         for name in sorted(chosen) if len(chosen) > 1 else chosen:
             after, pattern = chosen[name]
             reg = self.registration(name)
-            phase = reg.active_phase if reg is not None else None
-            retrieved = registration_results(
-                phase.retrieves if phase else (), board, self._whiteboards, now_ns=now_ns
+            triggers = self._triggers.get(name)
+            if triggers is not None and triggers.registration is reg:
+                phase = triggers.phase
+            else:
+                phase = reg.active_phase if reg is not None else None
+            retrieved = (
+                registration_results(phase.retrieves, board, self._whiteboards, now_ns=now_ns)
+                if phase is not None and phase.retrieves
+                else ()
             )  # OA-WAKE-7
-            wakeup = build_wakeup(
-                stored=stored,
+            wakeup, wire = assemble_wakeup(
+                trigger_xml=trigger_xml,
+                retrieved_xml=collection_xml(retrieved, self._copies),
+                # OA-WAKE-4: an empty phase without a registration
+                phase_xml=self._phase_xml(name, reg, phase, pattern),
                 whiteboard=board.name,
                 module=name,
-                retrieved=retrieved,
-                phase=phase or Phase(),  # OA-WAKE-4: an empty phase without a registration
-                lasttrigger=pattern,
+                id=cmd.fresh_id(),
+                posted=posted,
             )
             deliveries.append(
                 Delivery(
                     module=name,
-                    message=derive(wakeup, posted=posted),
+                    message=wakeup,
                     due_ns=base_ns + after * _NS_PER_MS,  # OA-TRIG-3
                     priority=stored.effective_priority,  # OA-PRIO-1
                     wb_priority=board.priority,  # OA-PRIO-2
+                    wire=wire,
                 )
             )
             self._module_counters(name).queued += 1
         board.dispatched += len(deliveries)
         return tuple(deliveries)
+
+    def _phase_xml(
+        self, name: str, reg: Registration | None, phase: Phase | None, lasttrigger: str
+    ) -> str:
+        """Return the PhaseSpec of a wakeup, cached per registration in force and lasttrigger."""
+        triggers = self._triggers.get(name)
+        if triggers is None or triggers.registration is not reg:
+            return phase_spec_xml(phase, module=name, lasttrigger=lasttrigger)
+        xml = triggers.phase_xml.get(lasttrigger)
+        if xml is None:
+            xml = phase_spec_xml(phase, module=name, lasttrigger=lasttrigger)
+            if len(triggers.phase_xml) < _PHASE_CACHE_SIZE:
+                triggers.phase_xml[lasttrigger] = xml
+        return xml
 
     def _woken(self, board: Whiteboard, stored: Message) -> dict[str, tuple[int, str]]:
         """Return each bound module to wake with (after ms, lasttrigger) (OA-WAKE-5/6)."""
@@ -488,7 +527,10 @@ class Router:
         for i, (pattern, _, _) in enumerate(entries):
             self._index.add(pattern, (name, i))
         self._triggers[name] = _Triggers(
-            registration=reg, entries=entries, allow_self=reg.allow_self_triggering
+            registration=reg,
+            entries=entries,
+            allow_self=reg.allow_self_triggering,
+            phase=reg.active_phase,
         )
         self._sessions.set_registration(name, reg)
 

@@ -7,14 +7,13 @@ times fall below the lower time bound, so `latest=1` on a full board costs one s
 
 from __future__ import annotations
 
-import operator
 from collections import deque
 from collections.abc import Callable, Iterator
-from dataclasses import fields
 from typing import Any
 
 from openair.content import ContentMatch, RetrieveSpec
 from openair.errors import StoreFailedError
+from openair.fastcodec import derived
 from openair.matching import matches
 from openair.message import Message
 from openair.server.commands import ms_time
@@ -29,25 +28,14 @@ _NS_PER_MS = 1_000_000
 # a reload trims to maxcount again.
 _MAX_EVICT_BATCH = 256
 
-_FIELDS = tuple(f.name for f in fields(Message))
-_READ = operator.attrgetter(*_FIELDS)
-_WRITE: tuple[Any, ...] = tuple(Message.__dict__[name].__set__ for name in _FIELDS)
-_INDEX = {name: i for i, name in enumerate(_FIELDS)}
-
 
 def derive(msg: Message, **changes: Any) -> Message:
-    """Return `msg` with `changes`, like `dataclasses.replace` but about four times cheaper.
+    """Return `msg` with `changes`, like `dataclasses.replace` but many times cheaper.
 
     It skips `__post_init__`: use it only for slots the server sets to values it knows valid
     (stored, receivedTime, wbid, postedTime).
     """
-    values = list(_READ(msg))
-    for name, value in changes.items():
-        values[_INDEX[name]] = value
-    new = object.__new__(Message)
-    for write, value in zip(_WRITE, values, strict=True):
-        write(new, value)
-    return new
+    return derived(msg, **changes)
 
 
 def content_glob(pattern: str) -> Callable[[str], bool]:

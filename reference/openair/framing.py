@@ -345,6 +345,8 @@ class FrameReader:
         if self._tag is FrameTag.BINARY:
             return ()  # the body is the chunk (OA-FRAME-5)
         start = self._pos + HEADER_SIZE
+        if not _MARKER.search(self._buf, start, start + length):
+            return ()  # the common case, decided without copying the XML out of the buffer
         with memoryview(self._buf) as view:
             xml = view[start : start + length].tobytes()
         sizes = binary_sizes(xml)  # OA-FRAME-4, OA-FRAME-13

@@ -32,12 +32,7 @@ LIMITED: dict[str, dict[str, int]] = {
 }
 
 #: Failures of the reference server found by the suite (case → what the server does wrong).
-KNOWN_SERVER_BUGS: dict[str, str] = {
-    "STREAM-001": (
-        "OA-STREAM-3, OA-GEN-4: a media command to an unknown name is answered FORWARD_FAILED, "
-        "not RECEIVE_ERROR STREAM_UNKNOWN"
-    ),
-}
+KNOWN_SERVER_BUGS: dict[str, str] = {}
 
 
 class _ServerThread:

@@ -489,7 +489,11 @@ class ServerConnection(asyncio.Protocol):
         self.resume_writing()
         transport = self.transport
         if linger and transport.can_write_eof():
-            transport.write_eof()
+            try:
+                transport.write_eof()
+            except OSError:  # the peer is already gone (ENOTCONN): nothing left to linger for
+                transport.abort()
+                return
             transport.resume_reading()
             loop = asyncio.get_running_loop()
             loop.call_later(self.host.flow.linger_s, transport.abort)

@@ -23,6 +23,7 @@ from openair.errors import (
     OpenAIRError,
     ShuttingDownError,
     StoreFailedError,
+    StreamUnknownError,
     TypeInvalidError,
 )
 from openair.framing import FrameTag
@@ -285,6 +286,8 @@ class Router:
             return self._forward(msg, received_ns, now_ns)
         if msg.to in self._streams:
             return self._to_stream(msg, now_ns)
+        if msg.type in cmd.MEDIA_COMMANDS:  # OA-STREAM-3: not FORWARD_FAILED
+            return self._no_stream(msg, now_ns)
         return Outcome(replies=(cmd.forward_failed(msg, now_ns=now_ns),))  # OA-SESS-21
 
     def _component_tables(self) -> dict[str, dict[str, Handler]]:
@@ -473,7 +476,14 @@ class Router:
         """Answer a request to a stream: PING and KEEPALIVE; media commands are not served."""
         if msg.type in ("PING", "KEEPALIVE"):
             return self._session_reply(msg, msg.to, now_ns)
+        if msg.type in cmd.MEDIA_COMMANDS:
+            return self._no_stream(msg, now_ns)
         return Outcome(replies=(cmd.unknown_command(msg, sender=msg.to, now_ns=now_ns),))
+
+    def _no_stream(self, msg: Message, now_ns: int) -> Outcome:
+        """Answer a media command: this server offers no streams (OA-GEN-4, OA-STREAM-3)."""
+        err = StreamUnknownError(f"no stream {msg.to!r} (this server offers no media streams)")
+        return Outcome(replies=(self._error(msg, err, msg.to or "CNS", now_ns),))
 
     # --- registrations --------------------------------------------------------------------
 

@@ -64,3 +64,30 @@ fuzz: $(STAMP)
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache .hypothesis
+
+# -- C++ binding (bindings/cpp) -----------------------------------------------------------------
+CPP_DIR  := bindings/cpp
+CPP_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+CPP_SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+.PHONY: deps-cpp cpp test-cpp
+
+## Install GoogleTest (Debian's libgtest-dev) when it is missing; needed only by test-cpp.
+deps-cpp:
+	@if [ ! -f /usr/include/gtest/gtest.h ]; then \
+		$(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y libgtest-dev; \
+	fi
+
+## Configure and build the C++ client, examples and shim (Release) into bindings/cpp/build.
+cpp:
+	cmake -S $(CPP_DIR) -B $(CPP_DIR)/build -DCMAKE_BUILD_TYPE=Release
+	cmake --build $(CPP_DIR)/build --parallel $(CPP_JOBS)
+
+## Build and run the C++ tests, then again under ASan/UBSan in bindings/cpp/build-asan.
+test-cpp: deps-cpp
+	$(MAKE) --no-print-directory cpp
+	ctest --test-dir $(CPP_DIR)/build --output-on-failure --parallel $(CPP_JOBS)
+	cmake -S $(CPP_DIR) -B $(CPP_DIR)/build-asan -DCMAKE_BUILD_TYPE=Debug -DOPENAIR_SANITIZE=ON \
+		-DOPENAIR_BUILD_EXAMPLES=OFF -DOPENAIR_BUILD_SHIM=OFF
+	cmake --build $(CPP_DIR)/build-asan --parallel $(CPP_JOBS)
+	ctest --test-dir $(CPP_DIR)/build-asan --output-on-failure --parallel $(CPP_JOBS)

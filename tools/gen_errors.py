@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Generate the error classes (Python, C++, Java) from the spec's single error table.
 
-Usage: gen_errors.py [--check]. With --check, exit 1 if a generated file is stale.
+Usage: gen_errors.py [--check] [--cpp OUT]. With --check, exit 1 if a generated file is stale.
+With --cpp OUT, only the C++ header (bindings/cpp/include/openair/errc.hpp) is written or checked,
+at OUT; without it every target is, the C++ header included once bindings/cpp exists.
 Model: asyncpg's tools/generate_exceptions.py (style rule 4).
 """
 
@@ -10,6 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -155,37 +158,77 @@ def python_source(rows: list[Row]) -> str:
     return "\n".join(out)
 
 
+def _cpp_string(text: str) -> str:
+    """Render `text` as a C++ string literal (the table's text is ASCII)."""
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _cpp_switch(
+    rows: list[Row], signature: str, value: Callable[[Row], str], last: str
+) -> list[str]:
+    """Render a constexpr function that switches over every condition."""
+    return [
+        f"constexpr {signature} noexcept {{",
+        "    switch (e) {",
+        *[f"        case errc::{r.name.lower()}: return {value(r)};" for r in rows],
+        "    }",
+        f"    return {last};",
+        "}",
+        "",
+    ]
+
+
 def cpp_source(rows: list[Row]) -> str:
     """Render bindings/cpp/include/openair/errc.hpp."""
     lines = [
         f"// {HEADER}",
         "#pragma once",
         "",
+        "#include <optional>",
         "#include <string_view>",
         "",
         "namespace openair {",
         "",
+        "/// The stable codes of the OpenAIR error table (spec section 13, spec/errors.xml).",
         "enum class errc : int {",
-        *[f"    {r.name.lower()} = {r.code}," for r in rows],
+        *[
+            line
+            for r in rows
+            for line in (f"    /// {r.text}", f"    {r.name.lower()} = {r.code},")
+        ],
         "};",
         "",
-        "/// The condition name that travels on the wire (RECEIVE_ERROR content `NAME: detail`).",
-        "constexpr std::string_view errc_name(errc e) noexcept {",
-        "    switch (e) {",
-        *[f'        case errc::{r.name.lower()}: return "{r.name}";' for r in rows],
-        "    }",
-        '    return "UNKNOWN";',
-        "}",
+        "/// Who is at fault for a condition (OA-GEN-3).",
+        "enum class blame { remote, peer, local };",
         "",
-        "/// Whether the condition blames the local caller (API misuse).",
-        "constexpr bool errc_is_local(errc e) noexcept {",
-        "    switch (e) {",
-        *[
-            f"        case errc::{r.name.lower()}: return {str(r.blame == 'local').lower()};"
-            for r in rows
-        ],
-        "    }",
-        "    return false;",
+        "/// The condition name that travels on the wire (RECEIVE_ERROR content `NAME: detail`).",
+        *_cpp_switch(
+            rows, "std::string_view errc_name(errc e)", lambda r: f'"{r.name}"', '"UNKNOWN"'
+        ),
+        "/// Who is at fault for the condition.",
+        *_cpp_switch(
+            rows, "blame errc_blame(errc e)", lambda r: f"blame::{r.blame}", "blame::remote"
+        ),
+        "/// Whether the condition blames the local caller (API misuse and local conditions).",
+        "constexpr bool errc_is_local(errc e) noexcept { return errc_blame(e) == blame::local; }",
+        "",
+        "/// Whether the connection that carried the condition is closed afterwards.",
+        *_cpp_switch(rows, "bool errc_closes(errc e)", lambda r: str(r.closes).lower(), "false"),
+        '/// The reply a server sends for the condition ("" when none is sent).',
+        *_cpp_switch(
+            rows,
+            "std::string_view errc_reply(errc e)",
+            lambda r: '""' if r.reply == "-" else f'"{r.reply}"',
+            '""',
+        ),
+        "/// The table's one-line description of the condition.",
+        *_cpp_switch(
+            rows, "std::string_view errc_text(errc e)", lambda r: _cpp_string(r.text), '""'
+        ),
+        "/// Look a condition up by its wire name; nullopt when the table has no such name.",
+        "constexpr std::optional<errc> errc_from_name(std::string_view name) noexcept {",
+        *[f'    if (name == "{r.name}") return errc::{r.name.lower()};' for r in rows],
+        "    return std::nullopt;",
         "}",
         "",
         "}  // namespace openair",
@@ -271,19 +314,27 @@ def main(argv: list[str] | None = None) -> int:
     """Write (or with --check, verify) every generated file."""
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--check", action="store_true", help="fail if a generated file is stale")
+    ap.add_argument(
+        "--cpp",
+        metavar="OUT",
+        type=Path,
+        help="write (or with --check, verify) only the C++ header, at OUT",
+    )
     args = ap.parse_args(argv)
     rows = load_rows()
-    targets = dict(TARGETS)
-    for path, render in OPTIONAL_TARGETS.items():
-        binding_root = path.parents[len(path.relative_to(ROOT).parts) - 3]
+    targets: dict[Path, Callable[[list[Row]], str]] = dict(TARGETS)
+    for optional_path, optional_render in OPTIONAL_TARGETS.items():
+        binding_root = optional_path.parents[len(optional_path.relative_to(ROOT).parts) - 3]
         if binding_root.exists():
-            targets[path] = render
+            targets[optional_path] = optional_render
+    if args.cpp is not None:
+        targets = {args.cpp.resolve(): cpp_source}
     stale = []
     for path, render in targets.items():
         text = render(rows)
         if args.check:
             if not path.exists() or path.read_text(encoding="utf-8") != text:
-                stale.append(path.relative_to(ROOT))
+                stale.append(path.relative_to(ROOT) if path.is_relative_to(ROOT) else path)
         else:
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(text, encoding="utf-8")

@@ -1,0 +1,126 @@
+// Internal: the state of a client and its I/O loop (one poll(2) over every connection).
+#pragma once
+
+#include <chrono>
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "openair/client.hpp"
+#include "socket.hpp"
+
+namespace openair {
+
+using steady = std::chrono::steady_clock;
+
+namespace detail {
+
+enum class conn_kind { primary, callback, accepted };
+
+/// One TCP connection and its sans-I/O session.
+struct connection {
+    int id = 0;
+    conn_kind kind = conn_kind::primary;
+    fd_handle fd;
+    session sess;
+    std::string out;  // bytes not yet written
+    bool dead = false;
+    std::string reason;  // why it died
+    steady::time_point last_rx = steady::now();
+    steady::time_point last_traffic = steady::now();
+    /// Requests received and not answered yet, in arrival order (OA-SESS-2).
+    struct answer_slot {
+        std::uint64_t seq = 0;
+        bool ready = false;
+        std::string type;
+        std::string content;
+    };
+    std::deque<answer_slot> answers;
+};
+
+/// A delivery waiting for `poll` to hand it to a callback.
+struct delivery {
+    int conn_id = 0;
+    std::uint64_t seq = 0;  // 0: nothing to acknowledge (noreply)
+    std::variant<wakeup_event, message_event> event;
+};
+
+}  // namespace detail
+
+struct client::impl {
+    client_options opt;
+    std::function<void(const wakeup_event&)> on_wakeup;
+    std::function<void(const message_event&)> on_message;
+
+    std::unique_ptr<detail::connection> primary;
+    std::unique_ptr<detail::connection> callback;
+    std::vector<std::unique_ptr<detail::connection>> accepted;
+    detail::fd_handle listener;
+    std::optional<std::uint16_t> listening_port;
+    int next_conn_id = 1;
+
+    // Requests on the primary connection: tickets in send order, and their outcome.
+    std::deque<std::uint64_t> tickets;
+    std::map<std::uint64_t, std::variant<std::monostate, message, error>> outcomes;
+    std::set<std::uint64_t> dropped;  // fire-and-forget: the reply is read and dropped
+    std::uint64_t next_ticket = 1;
+
+    std::deque<detail::delivery> inbox;
+    bool in_callback = false;
+    bool closed = false;
+    bool started = false;
+
+    std::optional<capabilities> caps;
+    bool legacy = false;
+    std::set<std::string> wanted;
+    std::set<std::string> extensions;
+    int bound_port = -1;
+    unsigned generation = 0;
+    struct registration {
+        std::vector<trigger> triggers;
+        std::vector<retrieve_spec> retrieves;
+        bool allow_self_triggering = false;
+    };
+    std::optional<registration> reg;
+    steady::time_point next_attempt = steady::now();
+    std::chrono::milliseconds backoff{0};
+
+    explicit impl(client_options o);
+
+    // -- client_io.cpp: the loop ------------------------------------------------------------
+    std::int64_t now_ns() const;
+    std::unique_ptr<detail::connection> open(detail::conn_kind kind, role r);
+    /// Wait for I/O until `deadline` (one poll(2) round) and handle what arrived.
+    void pump(steady::time_point deadline);
+    void flush(detail::connection& c);
+    void drop(detail::connection& c, const std::string& reason);
+    void primary_lost(const std::string& reason);
+    void handle_data(detail::connection& c, std::string_view data);
+    void handle_event(detail::connection& c, session_event& event, std::int64_t received_ns);
+    void queue_delivery(detail::connection& c, request_event& req, std::int64_t received_ns);
+    void answer_ready(detail::connection& c);
+    void reap();
+    detail::connection* find(int id);
+
+    // -- client.cpp: requests and the session ---------------------------------------------------
+    std::pair<message, std::uint64_t> submit(message msg, steady::time_point deadline);
+    message wait(std::uint64_t ticket, steady::time_point deadline);
+    std::pair<message, message> request(message msg);
+    void ensure_connected(steady::time_point deadline);
+    void establish(bool first);
+    void negotiate();
+    void bind_and_receive();
+    void send_registration();
+    void announce(bool first);
+    message declare(message msg) const;
+    void maintain();
+    std::size_t dispatch();
+    void close_all() noexcept;
+};
+
+}  // namespace openair

@@ -1,0 +1,244 @@
+// The client's I/O loop: one poll(2) over the primary, callback and accepted connections and
+// the listening socket. Runs only on the caller's thread, inside client calls.
+#include <poll.h>
+
+#include <algorithm>
+#include <cerrno>
+
+#include "client_impl.hpp"
+#include "openair/codec.hpp"
+
+namespace openair {
+
+namespace {
+
+constexpr std::size_t read_size = 64 * 1024;
+constexpr int reads_per_round = 16;       // bytes from one busy peer never starve the others
+constexpr std::size_t max_inbox = 10000;  // deliveries held for poll(); reading pauses beyond
+constexpr std::chrono::milliseconds max_wait{1000};
+
+}  // namespace
+
+client::impl::impl(client_options o) : opt(std::move(o)) {
+    if (opt.extensions) {
+        for (const std::string& name : *opt.extensions) {
+            if (client_extensions().count(name) == 0) {
+                throw error(errc::api_misuse, "extension this client does not implement: " + name);
+            }
+            wanted.insert(name);
+        }
+    } else {
+        wanted = client_extensions();
+    }
+    if (opt.bind && opt.name.empty()) throw error(errc::api_misuse, "a module needs a name");
+    if (opt.bind && !opt.listen && !opt.callback) {
+        throw error(errc::api_misuse, "BIND_NOLISTEN needs the callback connection (OA-DELIV-10)");
+    }
+    backoff = opt.reconnect_delay;
+}
+
+std::int64_t client::impl::now_ns() const {
+    return opt.clock ? opt.clock() : system_clock_ns();
+}
+
+std::unique_ptr<detail::connection> client::impl::open(detail::conn_kind kind, role r) {
+    auto c = std::make_unique<detail::connection>();
+    c->id = next_conn_id++;
+    c->kind = kind;
+    c->fd = detail::connect_tcp(opt.host, opt.port, opt.request_timeout);
+    c->sess = session(r, opt.clock, 1, extensions, opt.name, opt.limits);
+    return c;
+}
+
+detail::connection* client::impl::find(int id) {
+    if (primary && primary->id == id) return primary.get();
+    if (callback && callback->id == id) return callback.get();
+    for (auto& a : accepted) {
+        if (a->id == id) return a.get();
+    }
+    return nullptr;
+}
+
+void client::impl::flush(detail::connection& c) {
+    while (!c.dead && !c.out.empty()) {
+        detail::io_result r = detail::write_some(c.fd.get(), c.out);
+        if (r.closed) {
+            drop(c, "write failed: " + r.reason);
+            return;
+        }
+        if (r.would_block) return;
+        c.out.erase(0, r.bytes);
+        c.last_traffic = steady::now();
+    }
+}
+
+void client::impl::drop(detail::connection& c, const std::string& reason) {
+    if (c.dead) return;
+    c.dead = true;
+    c.reason = reason;
+    c.fd.reset();
+    c.sess.close();
+    c.out.clear();
+    if (&c == primary.get()) primary_lost(reason);
+}
+
+void client::impl::primary_lost(const std::string& reason) {
+    for (std::uint64_t t : tickets) {
+        if (dropped.erase(t) != 0) {
+            outcomes.erase(t);
+            continue;
+        }
+        outcomes[t] = error(errc::connection_closed, "connection lost: " + reason);
+    }
+    tickets.clear();
+    next_attempt = steady::now() + backoff;
+}
+
+void client::impl::answer_ready(detail::connection& c) {
+    while (!c.dead && !c.answers.empty() && c.answers.front().ready) {
+        detail::connection::answer_slot slot = std::move(c.answers.front());
+        c.answers.pop_front();
+        c.out += c.sess.answer(slot.seq, slot.type, slot.content);  // OA-SESS-2: in order
+    }
+    flush(c);
+}
+
+void client::impl::queue_delivery(detail::connection& c, request_event& req,
+                                  std::int64_t received_ns) {
+    const std::string& type = req.msg.type;
+    if (type == "PING" || type == "KEEPALIVE") {  // OA-SESS-11, OA-KEEP-2: no callback
+        if (req.needs_answer) c.answers.push_back({req.seq, true, "", ""});
+        return;
+    }
+    delivery_path path =
+        c.kind == detail::conn_kind::callback ? delivery_path::callback : delivery_path::listener;
+    std::uint64_t seq = req.needs_answer ? req.seq : 0;  // OA-MSG-15: noreply is not answered
+    if (type == wakeup_type) {
+        try {
+            wakeup w = parse_wakeup(req.msg);
+            inbox.push_back(
+                {c.id, seq, wakeup_event{std::move(w), std::move(req.msg), received_ns, path}});
+        } catch (const error& e) {
+            // OA-SESS-11: a wakeup that cannot be read is answered RECEIVE_ERROR.
+            if (req.needs_answer)
+                c.answers.push_back({req.seq, true, "RECEIVE_ERROR", e.wire_text()});
+            return;
+        }
+    } else {
+        inbox.push_back({c.id, seq, message_event{std::move(req.msg), received_ns, path}});
+    }
+    if (req.needs_answer) c.answers.push_back({req.seq, false, "", ""});
+}
+
+void client::impl::handle_event(detail::connection& c, session_event& event,
+                                std::int64_t received_ns) {
+    if (auto* reply = std::get_if<reply_event>(&event)) {
+        if (&c != primary.get() || tickets.empty()) return;  // a responder session pairs nothing
+        std::uint64_t ticket = tickets.front();
+        tickets.pop_front();
+        if (dropped.erase(ticket) != 0) {
+            outcomes.erase(ticket);
+        } else {
+            outcomes[ticket] = std::move(reply->msg);
+        }
+    } else if (auto* req = std::get_if<request_event>(&event)) {
+        queue_delivery(c, *req, received_ns);
+    } else if (auto* bad = std::get_if<invalid_event>(&event)) {
+        // OA-ERR-3: answered RECEIVE_ERROR, and the connection stays usable.
+        c.answers.push_back({bad->seq, true, "RECEIVE_ERROR", bad->failure.wire_text()});
+    } else if (std::holds_alternative<closed_event>(event)) {
+        drop(c, "closed by the server");
+    } else if (auto* failed = std::get_if<failed_event>(&event)) {
+        drop(c, failed->failure.what());  // OA-FRAME-9: the stream cannot be trusted any more
+    }
+}
+
+void client::impl::handle_data(detail::connection& c, std::string_view data) {
+    std::int64_t received_ns = now_ns();  // the first act on arrival
+    c.last_rx = c.last_traffic = steady::now();
+    std::vector<session_event> events =
+        data.empty() ? c.sess.receive_eof() : c.sess.receive_data(data);
+    for (session_event& event : events) {
+        handle_event(c, event, received_ns);
+        if (c.dead) break;
+    }
+    answer_ready(c);
+}
+
+void client::impl::reap() {
+    accepted.erase(
+        std::remove_if(accepted.begin(), accepted.end(), [](const auto& a) { return a->dead; }),
+        accepted.end());
+    if (callback && callback->dead) callback.reset();
+}
+
+void client::impl::pump(steady::time_point deadline) {
+    std::vector<pollfd> fds;
+    std::vector<detail::connection*> owners;  // nullptr: the listening socket
+    bool inbox_full = inbox.size() >= max_inbox;
+    auto add = [&](detail::connection* c) {
+        if (c == nullptr || c->dead) return;
+        short events = 0;
+        if (!inbox_full || c->kind == detail::conn_kind::primary) events |= POLLIN;
+        if (!c->out.empty()) events |= POLLOUT;
+        fds.push_back({c->fd.get(), events, 0});
+        owners.push_back(c);
+    };
+    add(primary.get());
+    add(callback.get());
+    for (auto& a : accepted) add(a.get());
+    if (listener.valid() && !inbox_full) {
+        fds.push_back({listener.get(), POLLIN, 0});
+        owners.push_back(nullptr);
+    }
+    auto now = steady::now();
+    auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now);
+    wait = std::clamp(wait, std::chrono::milliseconds(0), max_wait);
+    int rc = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()));
+    if (rc < 0 && errno != EINTR) throw error(errc::connection_closed, "poll failed");
+    for (std::size_t i = 0; rc > 0 && i < fds.size(); ++i) {
+        if (fds[i].revents == 0) continue;
+        detail::connection* c = owners[i];
+        if (c == nullptr) {
+            while (true) {  // OA-DELIV-2: any number of connections to the listening port
+                detail::fd_handle fd = detail::accept_tcp(listener.get());
+                if (!fd.valid()) break;
+                auto a = std::make_unique<detail::connection>();
+                a->id = next_conn_id++;
+                a->kind = detail::conn_kind::accepted;
+                a->fd = std::move(fd);
+                a->sess = session(role::responder, opt.clock, 1, extensions, opt.name, opt.limits);
+                accepted.push_back(std::move(a));
+            }
+            continue;
+        }
+        if (fds[i].revents & POLLOUT) flush(*c);
+        if (fds[i].revents & (POLLIN | POLLHUP | POLLERR)) {
+            char buf[read_size];
+            for (int round = 0; round < reads_per_round && !c->dead; ++round) {
+                detail::io_result r = detail::read_some(c->fd.get(), buf, sizeof buf);
+                if (r.would_block) break;
+                if (r.closed) {
+                    handle_data(*c, {});  // end of stream: FRAME_TRUNCATED inside a frame
+                    drop(*c, r.reason.empty() ? "closed by the server" : r.reason);
+                    break;
+                }
+                handle_data(*c, std::string_view(buf, r.bytes));
+            }
+        }
+    }
+    // OA-FRAME-12: a frame whose rest does not arrive in time is FRAME_TRUNCATED.
+    now = steady::now();
+    auto stalled = [&](detail::connection* c) {
+        if (c != nullptr && !c->dead && c->sess.in_frame() &&
+            now - c->last_rx > opt.frame_deadline) {
+            drop(*c, "FRAME_TRUNCATED: no byte of the frame within the frame deadline");
+        }
+    };
+    stalled(primary.get());
+    stalled(callback.get());
+    for (auto& a : accepted) stalled(a.get());
+    reap();
+}
+
+}  // namespace openair

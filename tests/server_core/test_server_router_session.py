@@ -224,6 +224,18 @@ def test_status() -> None:
     assert entries["Created"].startswith("2026-")
 
 
+def test_status_reports_the_counters_for_monitors() -> None:
+    h = Harness()
+    h.post(2, "Test.Status.A")
+    h.post(2, "Test.Status.B")
+    h.router.status_extra = lambda: {"queues": {"M": {"depth": 3}}, "connections": 4}
+    entries = dict(parse_dictionary(h.reply(1, "STATUS").content).entries)
+    assert entries["whiteboards.WB1.received"] == "2"
+    assert entries["whiteboards.WB1.stored"] == "2"
+    assert entries["whiteboards.WB2.received"] == "0"
+    assert entries["queues.M.depth"] == "3" and entries["connections"] == "4"
+
+
 def test_capabilities() -> None:
     h = Harness(limits=ServerLimits(max_queue=77))
     answer = h.reply(1, "GET_CAPABILITIES")

@@ -22,6 +22,7 @@ import time
 from collections.abc import Coroutine
 from dataclasses import dataclass, field
 
+import openair
 from openair.framing import FrameTag
 from openair.message import Message
 from openair.server.config import ServerConfig, ServerLimits, default_config, load_config
@@ -219,13 +220,14 @@ class Server:
         self.router = Router(
             self.config,
             self.store,
-            server_name=self.config.name,
+            server_name=f"openair-kit/{openair.__version__}",  # OA-CAP-1: implementation/version
             address=address,
             port=self.port,
             limits=self.limits,
             extensions=self.extensions,
             port_allocator=free_port,
         )
+        self.router.status_extra = self._status_counters
         self._apply(self.router.start(time.time_ns()), 0)  # OA-SESS-31: System.Ready
         await self._listener.start_serving()
         log.info(
@@ -249,6 +251,15 @@ class Server:
         counters["delivered"] = self.delivered_total
         counters["dropped"] = dict(self.dropped_total)
         return counters
+
+    def _status_counters(self) -> dict[str, object]:
+        """The adapter's counters that STATUS adds to the router's (for monitors)."""
+        return {
+            "queues": self.dispatcher.counters(),
+            "connections": len(self._conns),
+            "delivered": self.delivered_total,
+            "dropped": dict(self.dropped_total),
+        }
 
     async def serve_forever(self) -> None:
         """Wait until the server has stopped."""

@@ -10,7 +10,7 @@ from __future__ import annotations
 import itertools
 import os
 import random
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from datetime import UTC, datetime
 
 from openair.content import Dictionary, Registration
@@ -174,12 +174,36 @@ def declared_extensions(msg: Message) -> frozenset[str] | None:
     return frozenset(name for name in slot.value.split() if name in _KNOWN)
 
 
-def status_reply(req: Message, *, started_ns: int, now_ns: int, modules: int) -> Message:
-    """Answer STATUS with `Name` and `Created` (OA-SESS-25), plus a few readable counts."""
+def status_reply(
+    req: Message,
+    *,
+    started_ns: int,
+    now_ns: int,
+    modules: int,
+    counters: Mapping[str, object] | None = None,
+) -> Message:
+    """Answer STATUS with `Name` and `Created` (OA-SESS-25), a few counts and the counters.
+
+    Counters are flattened to dotted entry names (`whiteboards.WB1.received`), so that a monitor
+    can read every whiteboard's and module's figures over the protocol.
+    """
     created = datetime.fromtimestamp(started_ns / 1e9, tz=UTC).isoformat(timespec="milliseconds")
-    entries = (("Name", "CNS"), ("Created", created), ("Modules", str(modules)))
-    content = encode_dictionary(Dictionary(entries=entries))
+    entries = [("Name", "CNS"), ("Created", created), ("Modules", str(modules))]
+    entries.extend(_flatten(counters or {}, ""))
+    content = encode_dictionary(Dictionary(entries=tuple(entries)))
     return reply(req, "STATUS_SUCCESS", sender="CNS", now_ns=now_ns, content=content, xml=True)
+
+
+def _flatten(value: Mapping[str, object], prefix: str) -> list[tuple[str, str]]:
+    """Flatten nested mappings to (dotted name, text) pairs, in order."""
+    out: list[tuple[str, str]] = []
+    for key, item in value.items():
+        name = f"{prefix}{key}"
+        if isinstance(item, Mapping):
+            out.extend(_flatten(item, name + "."))
+        else:
+            out.append((name, str(item)))
+    return out
 
 
 def capabilities_reply(

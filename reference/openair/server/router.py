@@ -13,7 +13,7 @@ woken module (OA-WAKE-5).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
 from openair.content import ANY_WHITEBOARD, Phase, Registration, TcpLocation
@@ -131,6 +131,8 @@ class Router:
     ) -> None:
         self.config = config
         self.server_name = server_name
+        #: Extra counters (the adapter's queues) that STATUS reports beside the router's own.
+        self.status_extra: Callable[[], Mapping[str, object]] | None = None
         self.address = address
         self.port = port
         self.limits = limits
@@ -610,7 +612,12 @@ class Router:
     def _status(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
         started = self.started_ns if self.started_ns is not None else now_ns
         modules = len(self._modules)
-        answer = cmd.status_reply(msg, started_ns=started, now_ns=now_ns, modules=modules)
+        counters = dict(self.counters())
+        if self.status_extra is not None:
+            counters.update(self.status_extra())
+        answer = cmd.status_reply(
+            msg, started_ns=started, now_ns=now_ns, modules=modules, counters=counters
+        )
         return Outcome(replies=(answer,))  # OA-SESS-25
 
     def _capabilities(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:

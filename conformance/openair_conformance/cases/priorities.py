@@ -274,3 +274,31 @@ async def queue_overflow(ctx: CaseContext) -> None:
         "the fills that arrived are not the newest, in order",
         expected="OA-DELIV-9",
     )
+
+
+@case(
+    id="DELIV-004",
+    title="A noreply message forwarded to a legacy module arrives without noreply",
+    section="6.6",
+    requirements=("OA-GEN-2", "OA-SESS-22"),
+    needs=("noreply",),
+    allowed=("the delivery carries no noreply attribute (or noreply='no') and is acknowledged",),
+)
+async def noreply_stripped_for_legacy(ctx: CaseContext) -> None:
+    """Send `noreply="yes"` to a bound module that declared no extension; take its delivery.
+
+    Catches: a server that forwards the extension's wire form to a legacy module (OA-GEN-2),
+    which would then not acknowledge it and stall its deliveries.
+    """
+    target = await ctx.module("Legacy")  # declares nothing: a legacy module (OA-SESS-19)
+    sender = await ctx.module("S", bind=False)
+    msg = Message(
+        type=ctx.type("Quiet"), sender=sender.name, to=target.name, content="psst", noreply=True
+    )
+    await sender.send_noreply(msg)
+    got = await target.next_delivery()
+    ctx.check(
+        got.type == msg.type and not got.noreply,
+        f"the delivery is {got.type!r} with noreply={got.noreply}",
+        expected=f"{msg.type!r} without noreply (OA-GEN-2)",
+    )

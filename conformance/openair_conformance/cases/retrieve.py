@@ -105,10 +105,10 @@ async def latest(ctx: CaseContext) -> None:
 )
 async def sender_id_content(ctx: CaseContext) -> None:
     """Retrieve by sender (and its lower-cased form), by id, and with the content globs
-    `*tomato*`, `green*`, `Green*`, `c?` and `c*`.
+    `*tomato*`, `green*`, `tomato` (a part of the text only), `Green*`, `c?` and `c*`.
 
     Catches: substring or case-insensitive sender matching, content matched as a regex or a
-    substring, `?` treated as a wildcard.
+    substring (`tomato` must not match "green tomato"), `?` treated as a wildcard.
     """
     client, sent = await _example(ctx)
     checks = [
@@ -120,6 +120,8 @@ async def sender_id_content(ctx: CaseContext) -> None:
         (_spec(ctx, None, "", f'id="{sent[2].id}"'), ["Ret.B.1"]),
         (_spec(ctx, "Ret.*", "<latest>10</latest>", 'content="*tomato*"'), ["Ret.A.5", "Ret.B.1"]),
         (_spec(ctx, "Ret.*", "<latest>10</latest>", 'content="green*"'), ["Ret.B.1"]),
+        # OA-RET-8: the glob matches the whole text, never a part of it
+        (_spec(ctx, "Ret.*", "<latest>10</latest>", 'content="tomato"'), []),
         (_spec(ctx, "Ret.*", "<latest>10</latest>", 'content="Green*"'), []),
         (_spec(ctx, "Ret.*", "<latest>10</latest>", 'content="c?"'), []),
         (_spec(ctx, "Ret.A.*", "<latest>2</latest>", 'content="c*"'), ["Ret.A.8", "Ret.a.7"]),

@@ -419,9 +419,11 @@ async def lost_notice(ctx: CaseContext) -> None:
         expected="the server, as poster, stamps postedTime (OA-TIME-2)",
     )
     again = await ctx.module("M")
-    await setup_subscribe(again, triggers_xml(ctx.type("Other")))
     poster = await ctx.module("Poster", bind=False)
+    # Post before the new session registers anything: a stale registration would decide this
+    # wakeup (OA-WB-7); registering first would replace it and hide the fault.
     await poster.post("WB1", ctx.type("Old"), "for the old registration")
+    await setup_subscribe(again, triggers_xml(ctx.type("Other")))  # the barrier's cc (DEV-12)
     woken = await again.barrier()
     ctx.check(
         not woken,

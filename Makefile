@@ -49,10 +49,10 @@ typecheck: $(STAMP)
 	$(VENV)/bin/mypy
 
 test-python: $(STAMP)
-	$(VENV)/bin/pytest -m "not fuzz" $(PYTEST_ARGS)
+	OPENAIR_REQUIRE_BINDINGS=1 $(VENV)/bin/pytest -m "not fuzz" $(PYTEST_ARGS)
 
 ## Install what is needed and pass every test.
-test: check-generated lint typecheck test-python
+test: check-generated lint typecheck test-cpp test-java test-python
 
 ## Benchmarks (never part of `make test`).
 bench: $(STAMP)
@@ -91,3 +91,17 @@ test-cpp: deps-cpp
 		-DOPENAIR_BUILD_EXAMPLES=OFF -DOPENAIR_BUILD_SHIM=OFF
 	cmake --build $(CPP_DIR)/build-asan --parallel $(CPP_JOBS)
 	ctest --test-dir $(CPP_DIR)/build-asan --output-on-failure --parallel $(CPP_JOBS)
+
+# -- Java binding (bindings/java) ---------------------------------------------------------------
+# Maven runs offline (-o): every plugin and junit-jupiter come from the local repository.
+JAVA_DIR := bindings/java
+
+.PHONY: java test-java
+
+## Build the Java client and its shim jar (bindings/java/target/openair.jar, openair-shim.jar).
+java:
+	cd $(JAVA_DIR) && mvn -o -q package -DskipTests
+
+## Build the Java client and run its JUnit tests (every shared vector, a scripted fake server).
+test-java:
+	cd $(JAVA_DIR) && mvn -o -q package

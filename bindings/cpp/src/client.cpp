@@ -8,6 +8,7 @@
 #include "client_impl.hpp"
 #include "numbers.hpp"
 #include "openair/types.hpp"
+#include "test_faults.hpp"
 #include "xml.hpp"
 
 namespace openair {
@@ -127,6 +128,7 @@ void client::impl::negotiate() {
         auto limit = caps->limit("max-in-flight").value_or(default_max_in_flight);
         window = static_cast<std::size_t>(std::clamp<std::uint64_t>(limit, 1, 1u << 20));
     }
+    if (OPENAIR_FAULT(pipelining_to_legacy)) window = std::max<std::size_t>(window, 8);  // test
     primary->sess.set_extensions(extensions);
     primary->sess.set_window(window);
 }
@@ -146,7 +148,7 @@ void client::impl::bind_and_receive() {
                                       static_cast<std::uint16_t>(bound_port));
         listening_port = static_cast<std::uint16_t>(bound_port);
     }
-    if (opt.callback) {
+    if (opt.callback && !OPENAIR_FAULT(no_callback)) {  // no_callback: test-only fault
         if (callback) drop(*callback, "replaced");
         auto c = open(detail::conn_kind::callback, role::requester);
         message note = declare(make_message("RECEIVE_NAME_NOTIFICATION", opt.name));
@@ -316,7 +318,9 @@ std::size_t client::poll(std::chrono::milliseconds timeout) {
     auto deadline = steady::now() + std::max(timeout, std::chrono::milliseconds(0));
     do {
         s.maintain();
-        s.pump(deadline);
+        // Deliveries already queued go out at once: a legacy server sends nothing more until
+        // they are acknowledged (OA-DELIV-5), so waiting for traffic would only add latency.
+        s.pump(s.inbox.empty() ? deadline : steady::now());
     } while (s.inbox.empty() && steady::now() < deadline);
     return s.dispatch();
 }
@@ -355,6 +359,12 @@ message client::post_noreply(const std::string& to, const std::string& type,
     auto deadline = steady::now() + s.opt.request_timeout;
     s.ensure_connected(deadline);
     msg.noreply = s.extensions.count("noreply") != 0;  // OA-GEN-2, OA-MSG-15
+    if (OPENAIR_FAULT(noreply_to_legacy) && !msg.noreply) {  // test-only fault
+        std::set<std::string> claimed = s.primary->sess.extensions();
+        claimed.insert("noreply");
+        s.primary->sess.set_extensions(std::move(claimed));
+        msg.noreply = true;
+    }
     auto [sent, ticket] = s.submit(std::move(msg), deadline);
     if (ticket != 0) s.dropped.insert(ticket);  // a legacy server still replies: dropped
     return sent;

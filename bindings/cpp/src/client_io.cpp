@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 
 #include "client_impl.hpp"
 #include "openair/codec.hpp"
+#include "test_faults.hpp"
 
 namespace openair {
 
@@ -144,8 +146,12 @@ void client::impl::handle_event(detail::connection& c, session_event& event,
     } else if (auto* req = std::get_if<request_event>(&event)) {
         queue_delivery(c, *req, received_ns);
     } else if (auto* bad = std::get_if<invalid_event>(&event)) {
-        // OA-ERR-3: answered RECEIVE_ERROR, and the connection stays usable.
-        c.answers.push_back({bad->seq, true, "RECEIVE_ERROR", bad->failure.wire_text()});
+        if (OPENAIR_FAULT(crash_on_malformed)) std::_Exit(3);  // test-only fault
+        // OA-ERR-3: answered RECEIVE_ERROR, and the connection stays usable (test-only fault
+        // accept_malformed: RECEIVE_ACCEPT instead).
+        c.answers.push_back({bad->seq, true,
+                             OPENAIR_FAULT(accept_malformed) ? "RECEIVE_ACCEPT" : "RECEIVE_ERROR",
+                             bad->failure.wire_text()});
     } else if (std::holds_alternative<closed_event>(event)) {
         drop(c, "closed by the server");
     } else if (auto* failed = std::get_if<failed_event>(&event)) {

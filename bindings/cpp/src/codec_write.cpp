@@ -7,6 +7,7 @@
 #include "codec_internal.hpp"
 #include "numbers.hpp"
 #include "openair/codec.hpp"
+#include "test_faults.hpp"
 #include "xml.hpp"
 
 namespace openair {
@@ -58,7 +59,11 @@ void write_reference(xml_writer& w, const reference& ref) {
 void write_middle(xml_writer& w, const message& msg) {
     if (msg.inreplyto) write_reference(w, *msg.inreplyto);
     // A message received without postedTime cannot be given one here (OA-TIME-4).
-    if (msg.posted) write_time(w, "postedTime", *msg.posted);
+    if (msg.posted) {
+        // Test-only fault (openair-shim-broken): the legacy spelling, never canonical.
+        write_time(w, OPENAIR_FAULT(lowercase_postedtime) ? "postedtime" : "postedTime",
+                   *msg.posted);
+    }
     if (msg.received) write_time(w, "receivedTime", *msg.received);
     if (!msg.comment.empty()) w.text_element("comment", msg.comment);
     if (!msg.history.empty()) {

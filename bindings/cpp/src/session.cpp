@@ -6,6 +6,8 @@
 #include <utility>
 
 #include "openair/codec.hpp"
+#include "openair/content.hpp"
+#include "test_faults.hpp"
 
 namespace openair {
 
@@ -31,7 +33,8 @@ const std::set<std::string>& client_extensions() {
 }
 
 std::string_view default_answer(std::string_view request_type) noexcept {
-    if (request_type == "PING") return "PING_SUCCESS";           // OA-SESS-10
+    // OA-SESS-10 (test-only fault ping_accept: the wrong answer, for openair-shim-broken)
+    if (request_type == "PING" && !OPENAIR_FAULT(ping_accept)) return "PING_SUCCESS";
     if (request_type == "KEEPALIVE") return "KEEPALIVESUCCESS";  // OA-KEEP-2
     return "RECEIVE_ACCEPT";                                     // OA-DELIV-4
 }
@@ -91,6 +94,7 @@ void session::transition(action a) {
 }
 
 message session::stamp(message msg) const {
+    if (OPENAIR_FAULT(no_posted_time)) return msg;  // test-only fault (openair-shim-broken)
     // OA-TIME-2: postedTime is the last act before encoding; usec only under `usec` (OA-TIME-5).
     msg.posted = air_time::from_ns(now_(), extensions_.count("usec") != 0);
     return msg;
@@ -140,6 +144,11 @@ std::string session::answer(std::uint64_t seq, std::string_view type, std::strin
     } else {
         std::string_view kind = type.empty() ? default_answer(pending.request->type) : type;
         reply = pending.request->reply(std::string(kind), name_, std::string(content));
+        // Test-only faults (openair-shim-broken): a wakeup acknowledged wrongly, or never.
+        if (OPENAIR_FAULT(wrong_isresponse) && pending.request->type == wakeup_type) {
+            reply.isresponse = new_id();
+        }
+        if (OPENAIR_FAULT(no_ack) && pending.request->type == wakeup_type) return {};
     }
     return encode_frame(to_frame(stamp(std::move(reply))));
 }

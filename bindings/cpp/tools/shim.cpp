@@ -1,6 +1,10 @@
-// openair-shim: drives the C++ client for the conformance kit (protocol `openair-shim/1`,
+// The shim driver: drives the C++ client for the conformance kit (protocol `openair-shim/1`,
 // conformance/openair_conformance/shim/PROTOCOL.md). One JSON object per line on stdin, one per
 // line on stdout; free text on stderr. Between commands the client keeps answering deliveries.
+// `openair-shim` runs it as is (shim_main.cpp); the test-only `openair-shim-broken` runs it with
+// hooks that break one behaviour (shim_broken.cpp).
+#include "shim.hpp"
+
 #include <poll.h>
 #include <unistd.h>
 
@@ -10,8 +14,9 @@
 #include <optional>
 #include <string>
 
-#include "json.hpp"
 #include "openair/client.hpp"
+
+namespace openair::shim {
 
 namespace {
 
@@ -78,27 +83,31 @@ std::vector<std::string> strings(const value& v, std::string_view key) {
     return out;
 }
 
-class shim {
+class driver {
 public:
+    explicit driver(const hooks& h) : hooks_(h) {}
+
     /// Handle one command line; false once the shim must exit.
     bool handle(const std::string& line) {
         value cmd;
         std::int64_t seq = 0;
+        std::string name;
         try {
             cmd = openair::json::parse(line);
             seq = cmd.get_int("seq", 0);
-            std::string name = cmd.at("cmd").as_string();
+            name = cmd.at("cmd").as_string();
+            if (hooks_.command) cmd = hooks_.command(name, cmd);
             object fields;
             bool more = run(name, cmd, fields);
             object answer{{"seq", value(seq)}, {"ok", value(true)}};
             for (auto& field : fields) answer.push_back(std::move(field));
-            write(value(std::move(answer)));
+            say(name, value(std::move(answer)));
             return more;
         } catch (const openair::error& e) {
-            fail(seq, std::string(openair::errc_name(e.code())),
+            fail(name, seq, std::string(openair::errc_name(e.code())),
                  e.detail().empty() ? e.what() : e.detail());
         } catch (const std::exception& e) {
-            fail(seq, "API_MISUSE", e.what());
+            fail(name, seq, "API_MISUSE", e.what());
         }
         return true;
     }
@@ -116,11 +125,16 @@ public:
     static void write(const value& v) { std::cout << openair::json::dump(v) << '\n' << std::flush; }
 
 private:
-    static void fail(std::int64_t seq, const std::string& code, const std::string& text) {
-        write(value(
-            object{{"seq", value(seq)},
-                   {"ok", value(false)},
-                   {"error", value(object{{"code", value(code)}, {"message", value(text)}})}}));
+    void say(const std::string& name, value answer) const {
+        write(hooks_.answer ? hooks_.answer(name, std::move(answer)) : answer);
+    }
+
+    void fail(const std::string& name, std::int64_t seq, const std::string& code,
+              const std::string& text) const {
+        say(name, value(object{
+                      {"seq", value(seq)},
+                      {"ok", value(false)},
+                      {"error", value(object{{"code", value(code)}, {"message", value(text)}})}}));
     }
 
     openair::client& connected() {
@@ -227,26 +241,27 @@ private:
         return true;
     }
 
+    const hooks& hooks_;
     std::optional<openair::client> client_;
     std::deque<openair::wakeup_event> wakeups_;
 };
 
 }  // namespace
 
-int main() {
+int run(const hooks& h) {
     std::ios::sync_with_stdio(false);
-    shim::write(value(object{{"event", value("ready")},
-                             {"protocol", value("openair-shim/1")},
-                             {"library", value("openair-cpp")},
-                             {"version", value(library_version)}}));
-    shim driver;
+    driver::write(value(object{{"event", value("ready")},
+                               {"protocol", value("openair-shim/1")},
+                               {"library", value(h.library)},
+                               {"version", value(library_version)}}));
+    driver shim(h);
     std::string pending;
     char buf[4096];
     while (true) {
         pollfd in{STDIN_FILENO, POLLIN, 0};
         int rc = ::poll(&in, 1, 50);
         if (rc <= 0) {
-            driver.idle();
+            shim.idle();
             continue;
         }
         ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
@@ -257,8 +272,10 @@ int main() {
             std::string line = pending.substr(0, nl);
             pending.erase(0, nl + 1);
             if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-            if (!driver.handle(line)) return 0;
+            if (!shim.handle(line)) return 0;
         }
     }
     return 0;
 }
+
+}  // namespace openair::shim

@@ -1,0 +1,135 @@
+// openair-bench: the C++ client's side of bench/bench_bindings.py (never part of the tests).
+//
+//   openair-bench post HOST PORT N SIZE   bind with BIND_NOLISTEN, require the server to
+//       advertise `noreply`, send N noreply posts whose XML is about SIZE bytes, then one PING
+//       (answered in order, OA-SESS-2: the server has read every post); print
+//       {"posts": N, "seconds": S}, S from the first post to the PING reply.
+//   openair-bench decode FILE N   decode the message XML in FILE (a wakeup; a framed message is
+//       accepted too) N times per round, best of 5 rounds; print
+//       {"per_decode_us": X, "per_wakeup_us": Y}: decode_message alone, and decode_message
+//       followed by parse_wakeup.
+//
+// Exit status: 0 on success, 2 on an error (printed on stderr).
+#include <algorithm>
+#include <chrono>
+#include <cstddef>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "openair/client.hpp"
+#include "openair/codec.hpp"
+#include "openair/content.hpp"
+#include "openair/frame.hpp"
+
+namespace {
+
+using clock_type = std::chrono::steady_clock;
+
+constexpr const char* post_type = "Bench.Flow.Data";
+constexpr const char* whiteboard = "WB1";
+constexpr int decode_rounds = 5;
+
+std::size_t count_arg(const char* text) {
+    long long value = std::stoll(text);
+    if (value < 1) throw std::runtime_error(std::string("expected a positive count: ") + text);
+    return static_cast<std::size_t>(value);
+}
+
+// Content that makes the post's XML about `size` bytes (its envelope measured by encoding it).
+std::string padding(const std::string& sender, std::size_t size) {
+    openair::message probe = openair::make_message(post_type, sender, whiteboard);
+    probe.posted = openair::air_time::from_ns(0);
+    probe.noreply = true;
+    std::size_t envelope = openair::encode_message(probe).size();
+    return std::string(size > envelope ? size - envelope : 0, 'x');
+}
+
+int post(const std::string& host, const std::string& port, std::size_t n, std::size_t size) {
+    openair::client_options options;
+    options.host = host;
+    options.port = static_cast<std::uint16_t>(std::stoi(port));
+    options.name = "BenchCpp";
+    options.listen = false;  // BIND_NOLISTEN: deliveries (none expected) on the callback
+    options.announce = false;
+    options.reconnect = false;
+    openair::client module = openair::client::connect(options);
+    const auto& caps = module.server_capabilities();
+    if (!caps || !caps->has_extension("noreply") || module.extensions().count("noreply") == 0) {
+        throw std::runtime_error("the server does not advertise noreply");
+    }
+    const std::string content = padding(options.name, size);
+    auto start = clock_type::now();
+    for (std::size_t i = 0; i < n; ++i) {
+        (void)module.post_noreply(whiteboard, post_type, content);
+    }
+    openair::message pong = module.request(openair::make_message("PING", "", openair::cns));
+    std::chrono::duration<double> seconds = clock_type::now() - start;
+    if (pong.type != "PING_SUCCESS") throw std::runtime_error("PING answered " + pong.type);
+    module.close();
+    std::cout << "{\"posts\": " << n << ", \"seconds\": " << seconds.count() << "}" << std::endl;
+    return 0;
+}
+
+// The message XML in `path`: the file as is, or the XML of the one frame it holds.
+std::string read_xml(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error("cannot read " + path);
+    std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!data.empty() && data.front() == '<') return data;
+    openair::frame_reader reader;
+    reader.feed(data);
+    auto f = reader.next();
+    if (!f) throw std::runtime_error(path + " holds neither XML nor a whole frame");
+    return f->xml;
+}
+
+template <typename Fn>
+double best_us(std::size_t n, Fn&& fn) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int round = 0; round < decode_rounds; ++round) {
+        auto start = clock_type::now();
+        for (std::size_t i = 0; i < n; ++i) fn();
+        std::chrono::duration<double, std::micro> spent = clock_type::now() - start;
+        best = std::min(best, spent.count() / static_cast<double>(n));
+    }
+    return best;
+}
+
+int decode(const std::string& path, std::size_t n) {
+    const std::string xml = read_xml(path);
+    std::size_t sink = 0;  // results are used, so no decode can be optimised away
+    double per_decode = best_us(n, [&] { sink += openair::decode_message(xml).content.size(); });
+    double per_wakeup = best_us(n, [&] {
+        openair::wakeup w = openair::parse_wakeup(openair::decode_message(xml));
+        sink += w.lasttrigger.size() + (w.trigger ? w.trigger->content.size() : 0);
+    });
+    if (sink == 0) throw std::runtime_error("the wakeup in " + path + " decoded to nothing");
+    std::cout << "{\"per_decode_us\": " << per_decode << ", \"per_wakeup_us\": " << per_wakeup
+              << "}" << std::endl;
+    return 0;
+}
+
+int usage() {
+    std::cerr << "usage: openair-bench post HOST PORT N SIZE | openair-bench decode FILE N\n";
+    return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        std::string mode = argc > 1 ? argv[1] : "";
+        if (mode == "post" && argc == 6) {
+            return post(argv[2], argv[3], count_arg(argv[4]), count_arg(argv[5]));
+        }
+        if (mode == "decode" && argc == 4) return decode(argv[2], count_arg(argv[3]));
+        return usage();
+    } catch (const std::exception& e) {
+        std::cerr << "openair-bench: " << e.what() << std::endl;
+        return 2;
+    }
+}

@@ -322,11 +322,16 @@ async def run(
     try:
         return await _run(options, reporters, cases)
     finally:
-        for reporter in reporters:
-            try:
-                reporter.close()
-            except Exception as exc:  # one broken reporter must not stop the others' files
-                print(f"reporter {type(reporter).__name__} failed to close: {exc}", file=sys.stderr)
+        close_reporters(reporters)
+
+
+def close_reporters(reporters: Sequence[Reporter]) -> None:
+    """Close every reporter once; one that fails must not stop the others' files."""
+    for reporter in reporters:
+        try:
+            reporter.close()
+        except Exception as exc:
+            print(f"reporter {type(reporter).__name__} failed to close: {exc}", file=sys.stderr)
 
 
 async def _run(

@@ -13,7 +13,6 @@ import asyncio
 import math
 import secrets
 import shlex
-import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -21,7 +20,7 @@ from pathlib import Path
 
 from openair_conformance.clientmode.runner import DEADLINE_S, LATENCY_MEASURE, ScenarioRun
 from openair_conformance.clientmode.scenario import Scenario, load_scenarios, select_scenarios
-from openair_conformance.engine import DEFAULT_FAIL_ON, EngineError, judge
+from openair_conformance.engine import DEFAULT_FAIL_ON, EngineError, close_reporters, judge
 from openair_conformance.model import (
     CaseFinished,
     CaseResult,
@@ -199,11 +198,7 @@ async def run_client(
     try:
         return await _run(options, reporters, scenarios)
     finally:
-        for reporter in reporters:
-            try:
-                reporter.close()
-            except Exception as exc:  # one broken reporter must not stop the others' files
-                print(f"reporter {type(reporter).__name__} failed to close: {exc}", file=sys.stderr)
+        close_reporters(reporters)
 
 
 async def _run(

@@ -225,3 +225,41 @@ class RunRecord:
             latencies=(("rtt_ms", rtt),),
             results=results,
         )
+
+
+class FileReporter:
+    """A reporter that records the events and writes one file when closed.
+
+    Subclasses give `what` (for error messages) and `render()`; the file is written once,
+    atomically, and only if a run started; a write error is reported on stderr, not raised.
+    """
+
+    what = "report"
+
+    def __init__(self, path: Path | str) -> None:
+        self.path = Path(path)
+        self.record = RunRecord()
+        self.written = False
+        self._closed = False
+
+    def handle(self, event: Event) -> None:
+        """Record one event."""
+        self.record.handle(event)
+
+    def render(self) -> bytes:
+        """Return the file's bytes for the recorded run."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Write the file (once), if a run started; a write error is reported on stderr."""
+        if self._closed:
+            return
+        self._closed = True
+        if self.record.started is None:
+            return
+        try:
+            write_atomic(self.path, self.render())
+        except OSError as exc:
+            write_failed(self.what, self.path, exc)
+            return
+        self.written = True

@@ -11,19 +11,16 @@ several JSON reports side by side.
 
 from __future__ import annotations
 
-from pathlib import Path
-
-from openair_conformance.model import CaseResult, Event, RunStarted, RunSummary, Verdict
+from openair_conformance.model import CaseResult, RunStarted, RunSummary, Verdict
 from openair_conformance.registry import requirement_sentences
 from openair_conformance.reporters._common import (
+    FileReporter,
     RunRecord,
     by_section,
     first_line,
     format_time,
     section_key,
     section_label,
-    write_atomic,
-    write_failed,
 )
 from openair_conformance.reporters._compare import write_comparison
 from openair_conformance.reporters._htmlkit import esc, page, trace_list, verdict_badge
@@ -228,29 +225,11 @@ def render_report(record: RunRecord) -> str:
     return page(f"OpenAIR conformance: {started.target}", "\n".join(body))
 
 
-class HtmlReporter:
+class HtmlReporter(FileReporter):
     """Write the run as one HTML page to `path` when closed."""
 
-    def __init__(self, path: Path | str) -> None:
-        self.path = Path(path)
-        self.record = RunRecord()
-        self.written = False
-        self._closed = False
+    what = "HTML report"
 
-    def handle(self, event: Event) -> None:
-        """Record one event."""
-        self.record.handle(event)
-
-    def close(self) -> None:
-        """Write the file (once), if a run started; a write error is reported on stderr."""
-        if self._closed:
-            return
-        self._closed = True
-        if self.record.started is None:
-            return
-        try:
-            write_atomic(self.path, render_report(self.record).encode("utf-8"))
-        except OSError as exc:
-            write_failed("HTML report", self.path, exc)
-            return
-        self.written = True
+    def render(self) -> bytes:
+        """Return the file's bytes for the recorded run."""
+        return render_report(self.record).encode("utf-8")

@@ -20,7 +20,6 @@ from openair_conformance import __version__
 from openair_conformance.model import (
     CaseInfo,
     CaseResult,
-    Event,
     Level,
     RunStarted,
     RunSummary,
@@ -30,12 +29,11 @@ from openair_conformance.model import (
 )
 from openair_conformance.registry import requirement_sentences
 from openair_conformance.reporters._common import (
+    FileReporter,
     RunRecord,
     by_section,
     format_time,
     section_titles,
-    write_atomic,
-    write_failed,
 )
 from openair_conformance.reporters._jsonschema import SchemaValidationError, validate
 
@@ -167,32 +165,14 @@ def dump_report(data: dict[str, Any]) -> bytes:
     return (text + "\n").encode("utf-8", "backslashreplace")
 
 
-class JsonReporter:
+class JsonReporter(FileReporter):
     """Write the run as a JSON report to `path` when closed."""
 
-    def __init__(self, path: Path | str) -> None:
-        self.path = Path(path)
-        self.record = RunRecord()
-        self.written = False
-        self._closed = False
+    what = "JSON report"
 
-    def handle(self, event: Event) -> None:
-        """Record one event."""
-        self.record.handle(event)
-
-    def close(self) -> None:
-        """Write the file (once), if a run started; a write error is reported on stderr."""
-        if self._closed:
-            return
-        self._closed = True
-        if self.record.started is None:
-            return
-        try:
-            write_atomic(self.path, dump_report(report_data(self.record)))
-        except OSError as exc:
-            write_failed("JSON report", self.path, exc)
-            return
-        self.written = True
+    def render(self) -> bytes:
+        """Return the file's bytes for the recorded run."""
+        return dump_report(report_data(self.record))
 
 
 # -- reading a report back ---------------------------------------------------------------------

@@ -19,13 +19,12 @@ excerpt. The file is written when the reporter is closed; nothing is written whe
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from lxml import etree
 
-from openair_conformance.model import CaseResult, Event, RunStarted, Verdict
+from openair_conformance.model import CaseResult, RunStarted, Verdict
 from openair_conformance.registry import requirement_sentences
 from openair_conformance.reporters._common import (
+    FileReporter,
     RunRecord,
     entry_head,
     excerpt,
@@ -34,8 +33,6 @@ from openair_conformance.reporters._common import (
     safe_text,
     section_key,
     section_label,
-    write_atomic,
-    write_failed,
 )
 
 __all__ = ["JUnitReporter", "junit_document", "junit_kind"]
@@ -162,32 +159,18 @@ def junit_document(record: RunRecord) -> etree._Element:
     return root
 
 
-class JUnitReporter:
+class JUnitReporter(FileReporter):
     """Write the run as JUnit XML to `path` when closed."""
 
-    def __init__(self, path: Path | str) -> None:
-        self.path = Path(path)
-        self.record = RunRecord()
-        self.written = False
-        self._closed = False
+    what = "JUnit report"
 
-    def handle(self, event: Event) -> None:
-        """Record one event."""
-        self.record.handle(event)
-
-    def close(self) -> None:
-        """Write the file (once), if a run started; a write error is reported on stderr."""
-        if self._closed:
-            return
-        self._closed = True
-        if self.record.started is None:
-            return
-        data = etree.tostring(
-            junit_document(self.record), xml_declaration=True, encoding="UTF-8", pretty_print=True
+    def render(self) -> bytes:
+        """Return the file's bytes for the recorded run."""
+        return bytes(
+            etree.tostring(
+                junit_document(self.record),
+                xml_declaration=True,
+                encoding="UTF-8",
+                pretty_print=True,
+            )
         )
-        try:
-            write_atomic(self.path, data)
-        except OSError as exc:
-            write_failed("JUnit report", self.path, exc)
-            return
-        self.written = True

@@ -85,6 +85,30 @@ public final class Session {
      */
     public record Closed(List<String> unanswered) implements Event {}
 
+    /**
+     * Rewrites a frame this end is about to send. A test seam only: see {@link #tap}.
+     */
+    interface FrameTap {
+        /**
+         * Return the bytes to send instead of {@code frame} (empty: send nothing).
+         *
+         * @param message the message the frame carries, as encoded
+         * @param tag the frame's tag
+         * @param frame the encoded frame
+         * @return the bytes to send
+         */
+        byte[] rewrite(Message message, Frame.Tag tag, byte[] frame);
+    }
+
+    /**
+     * Test seam, null in every library use: when set, every frame a session builds passes
+     * through it before it is sent. Package-private and never assigned by the library or its
+     * API; only the deliberately broken conformance shim of the tests (src/test/java:
+     * {@code org.openair.internal.FrameFaults}, run by {@code org.openair.shim.BrokenShimMain})
+     * sets it, to prove that {@code openair conform-client} catches a misbehaving library.
+     */
+    static volatile FrameTap tap;
+
     private static final Map<State, Map<Action, State>> TABLE = table();
 
     private static Map<State, Map<Action, State>> table() {
@@ -254,7 +278,9 @@ public final class Session {
     }
 
     private static byte[] frame(Message m, Frame.Tag tag) {
-        return new Frame(tag, Codec.encode(m), m.binary()).encode();
+        byte[] data = new Frame(tag, Codec.encode(m), m.binary()).encode();
+        FrameTap t = tap;
+        return t == null ? data : t.rewrite(m, tag, data);
     }
 
     /**

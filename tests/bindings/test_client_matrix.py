@@ -12,7 +12,6 @@ skips, unless OPENAIR_REQUIRE_BINDINGS=1 (set by `make test`), which makes it fa
 from __future__ import annotations
 
 import asyncio
-import os
 import shutil
 import sys
 from dataclasses import dataclass
@@ -20,6 +19,7 @@ from pathlib import Path
 
 import lxml.html
 import pytest
+from bindings_support import require
 
 from openair_conformance.clientmode.scenario import load_scenarios
 from openair_conformance.reporters.jsonreport import load_report
@@ -35,16 +35,7 @@ TIMEOUT = 300.0  # one conform-client run; a hang fails instead of blocking
 
 
 def _require(*paths: Path) -> None:
-    """Skip (or fail, under OPENAIR_REQUIRE_BINDINGS=1) when a binding's build is missing."""
-    missing = [str(p.relative_to(ROOT)) for p in paths if not p.is_file()]
-    if shutil.which("java") is None:
-        missing.append("java (a Java 17 runtime)")
-    if not missing:
-        return
-    reason = f"bindings not built ({', '.join(missing)} missing): run `make cpp java`"
-    if os.environ.get("OPENAIR_REQUIRE_BINDINGS") == "1":
-        pytest.fail(reason, pytrace=False)
-    pytest.skip(reason)
+    require("bindings", "make cpp java", *paths, java=True)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

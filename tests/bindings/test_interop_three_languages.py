@@ -16,7 +16,6 @@ OPENAIR_REQUIRE_BINDINGS=1 (set by `make test`), which makes it fail.
 from __future__ import annotations
 
 import asyncio
-import os
 import shutil
 from collections.abc import AsyncIterator, Sequence
 from contextlib import asynccontextmanager
@@ -25,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from bindings_support import require
 
 from openair.client import Module
 from openair.client.shim import message_object, wakeup_object
@@ -49,16 +49,7 @@ Json = dict[str, Any]
 
 
 def _require(*paths: Path) -> None:
-    """Skip (or fail, under OPENAIR_REQUIRE_BINDINGS=1) when a binding's build is missing."""
-    missing = [str(p.relative_to(ROOT)) for p in paths if not p.is_file()]
-    if shutil.which("java") is None:
-        missing.append("java (a Java 17 runtime)")
-    if not missing:
-        return
-    reason = f"bindings not built ({', '.join(missing)} missing): run `make cpp java`"
-    if os.environ.get("OPENAIR_REQUIRE_BINDINGS") == "1":
-        pytest.fail(reason, pytrace=False)
-    pytest.skip(reason)
+    require("bindings", "make cpp java", *paths, java=True)
 
 
 @asynccontextmanager

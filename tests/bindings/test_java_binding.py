@@ -15,33 +15,33 @@ unless OPENAIR_REQUIRE_BINDINGS=1 (set by `make test`), which makes them fail.
 
 from __future__ import annotations
 
-import asyncio
-import os
 import re
 import shutil
 import subprocess
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pytest
-from click.testing import CliRunner
+from bindings_support import (
+    ROOT,
+    breaks_without,
+    check_break,
+    check_every_scenario_passes,
+    require,
+    run_breaks,
+    run_real_shim,
+)
 
-from openair_conformance.client_cli import conform_client
-from openair_conformance.clientmode.engine import ClientRunOptions, run_client
-from openair_conformance.clientmode.scenario import load_scenarios
-from openair_conformance.model import RunSummary, Verdict
-from openair_conformance.reporters.jsonreport import load_report
+from openair_conformance.model import RunSummary
 
-ROOT = Path(__file__).resolve().parents[2]
 JAVA_DIR = ROOT / "bindings" / "java"
 TARGET = JAVA_DIR / "target"
 LIBRARY = TARGET / "openair.jar"
 SHIM = TARGET / "openair-shim.jar"
 BROKEN_SHIM = TARGET / "openair-shim-broken.jar"
 
-JOBS = 4  # scenarios (and broken shims) run at a time: each has its own server and shim
+BREAKS = breaks_without("pipelining-to-legacy")  # needs a second seam in main code
 
 
 def java() -> str:
@@ -49,50 +49,8 @@ def java() -> str:
     return shutil.which("java") or "java"
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
-class Break:
-    """A broken behaviour, the scenarios that must catch it and one that must still pass."""
-
-    fails: tuple[str, ...]
-    evidence: str  # a word the first failing scenario's message contains
-    control: str = "CLI-006"
-
-
-#: --break NAME -> what catches it. The first eight are shim-layer breaks (BrokenShimMain); the
-#: others are library faults (FrameFaults; noreply-to-legacy also marks the post in the shim).
-BREAKS: dict[str, Break] = {
-    "wrong-trigger": Break(fails=("CLI-004",), evidence="trigger.from"),
-    "retrieve-oldest-first": Break(
-        fails=("CLI-006",), evidence="messages[0].id", control="CLI-004"
-    ),
-    "path-swapped": Break(fails=("CLI-002", "CLI-012"), evidence="path is"),
-    "phase-as-trigger": Break(fails=("CLI-020",), evidence="trigger.id"),
-    "legacy-hidden": Break(fails=("CLI-009",), evidence="legacy is 'false'"),
-    "xml-as-text": Break(fails=("CLI-007",), evidence="messages[0].xml"),
-    "errors-as-request-failed": Break(fails=("CLI-015",), evidence="CONNECTION_CLOSED"),
-    "no-callback": Break(fails=("CLI-003",), evidence="no open callback connection"),
-    "lowercase-postedtime": Break(fails=("CLI-019",), evidence="postedtime"),
-    "no-posted-time": Break(fails=("CLI-018", "CLI-019"), evidence="carries no postedTime"),
-    "no-ack": Break(fails=("CLI-013",), evidence="no answer"),
-    "wrong-isresponse": Break(fails=("CLI-013", "CLI-020"), evidence="isresponse"),
-    "ping-accept": Break(fails=("CLI-003", "CLI-010"), evidence="RECEIVE_ACCEPT"),
-    "noreply-to-legacy": Break(fails=("CLI-009",), evidence="carries a noreply attribute"),
-    "crash-on-malformed": Break(fails=("CLI-016",), evidence="closed"),
-    "accept-malformed": Break(fails=("CLI-016",), evidence="not RECEIVE_ERROR"),
-}
-
-
 def _require(*paths: Path) -> None:
-    """Skip (or fail, under OPENAIR_REQUIRE_BINDINGS=1) when a Java build output is missing."""
-    missing = [str(p.relative_to(ROOT)) for p in paths if not p.is_file()]
-    if shutil.which("java") is None:
-        missing.append("java (a Java 17 runtime)")
-    if not missing:
-        return
-    reason = f"Java binding not built ({', '.join(missing)} missing): run `make java`"
-    if os.environ.get("OPENAIR_REQUIRE_BINDINGS") == "1":
-        pytest.fail(reason, pytrace=False)
-    pytest.skip(reason)
+    require("Java binding", "make java", *paths, java=True)
 
 
 # -- (a) the real shim passes every scenario --------------------------------------------------
@@ -102,26 +60,11 @@ def _require(*paths: Path) -> None:
 def real_report(tmp_path_factory: pytest.TempPathFactory) -> tuple[int, str, dict[str, Any]]:
     _require(SHIM, LIBRARY)
     report = tmp_path_factory.mktemp("java-shim") / "java.json"
-    shim = f"{java()} -jar {SHIM}"
-    outcome = CliRunner().invoke(
-        conform_client, ["--shim", shim, "-j", str(JOBS), "--json", str(report)]
-    )
-    return outcome.exit_code, outcome.output, load_report(report)
+    return run_real_shim(f"{java()} -jar {SHIM}", report)
 
 
 def test_the_java_shim_passes_every_scenario(real_report: tuple[int, str, dict[str, Any]]) -> None:
-    exit_code, output, report = real_report
-    verdicts = {item["id"]: item["verdict"] for item in report["results"]}
-    assert list(verdicts) == [s.info.id for s in load_scenarios()]
-    assert {id_: v for id_, v in verdicts.items() if v != Verdict.PASS.value} == {}, output
-    assert exit_code == 0, output
-
-
-def test_the_report_names_the_java_library(real_report: tuple[int, str, dict[str, Any]]) -> None:
-    _, _, report = real_report
-    assert report["server"]["server"] == "openair-java 0.1.0"
-    assert report["server"]["protocol"] == "openair-shim/1"
-    assert report["options"]["mode"] == "client"
+    check_every_scenario_passes(real_report, "openair-java 0.1.0")
 
 
 # -- (b) every deliberately broken behaviour is caught ----------------------------------------
@@ -136,22 +79,7 @@ def broken_shim(name: str) -> tuple[str, ...]:
 def broken_runs() -> dict[str, RunSummary]:
     """Run every break on its catching scenarios and its control, JOBS breaks at a time."""
     _require(BROKEN_SHIM, LIBRARY)
-
-    async def all_breaks() -> dict[str, RunSummary]:
-        window = asyncio.Semaphore(JOBS)
-
-        async def one(name: str, spec: Break) -> RunSummary:
-            selected = (*spec.fails, spec.control)
-            options = ClientRunOptions(
-                shim=broken_shim(name), scenario_globs=selected, jobs=len(selected)
-            )
-            async with window:
-                return await run_client(options)
-
-        summaries = await asyncio.gather(*(one(n, s) for n, s in BREAKS.items()))
-        return dict(zip(BREAKS, summaries, strict=True))
-
-    return asyncio.run(all_breaks())
+    return run_breaks(BREAKS, broken_shim)
 
 
 def test_the_broken_shim_offers_exactly_the_listed_breaks() -> None:
@@ -172,16 +100,7 @@ def test_the_broken_shim_offers_exactly_the_listed_breaks() -> None:
 def test_a_broken_behaviour_fails_its_scenarios(
     name: str, broken_runs: dict[str, RunSummary]
 ) -> None:
-    spec = BREAKS[name]
-    summary = broken_runs[name]
-    results = {r.info.id: r for r in summary.results}
-    failed = sorted(id_ for id_, r in results.items() if r.verdict is Verdict.FAIL)
-    assert failed == sorted(spec.fails), {id_: r.message for id_, r in results.items()}
-    first = results[spec.fails[0]]
-    assert spec.evidence in first.message, first.message
-    assert first.divergence is not None and 0 <= first.divergence < len(first.trace)
-    control = results[spec.control]
-    assert control.verdict is Verdict.PASS, control.message  # the break is narrow
+    check_break(BREAKS[name], broken_runs[name])
 
 
 # -- (c) the library carries no fault ---------------------------------------------------------

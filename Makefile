@@ -9,7 +9,7 @@ HOST   ?= 127.0.0.1
 PORT   ?= 10000
 PYTEST_ARGS ?=
 
-.PHONY: all venv serve test test-python lint typecheck generate check-generated bench fuzz clean
+.PHONY: all venv serve test test-python lint typecheck generate check-generated bench fuzz clean deps-browser
 
 all: test
 
@@ -48,8 +48,15 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
 
-test-python: $(STAMP)
-	OPENAIR_REQUIRE_BINDINGS=1 $(VENV)/bin/pytest -m "not fuzz" $(PYTEST_ARGS)
+## Install headless Chromium, its driver and Graphviz when missing (browser tests, diagrams).
+deps-browser:
+	@if ! command -v chromium >/dev/null || ! command -v chromedriver >/dev/null \
+		|| ! command -v dot >/dev/null; then \
+		$(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y chromium chromium-driver graphviz; \
+	fi
+
+test-python: $(STAMP) deps-browser
+	OPENAIR_REQUIRE_BINDINGS=1 OPENAIR_REQUIRE_BROWSER=1 $(VENV)/bin/pytest -m "not fuzz" $(PYTEST_ARGS)
 
 ## Install what is needed and pass every test.
 test: check-generated lint typecheck test-cpp test-java test-python

@@ -21,6 +21,7 @@ import socket
 import time
 from collections.abc import Coroutine
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import openair
 from openair.framing import FrameTag
@@ -31,7 +32,7 @@ from openair.server.protocol import FlowLimits, Role, ServerConnection
 from openair.server.router import ModuleInfo, Outcome, Router
 from openair.server.store import HistoryStore, open_store
 
-__all__ = ["DEFAULT_EXTENSIONS", "Server", "ServerOptions", "start_server"]
+__all__ = ["DEFAULT_EXTENSIONS", "MonitorHook", "Server", "ServerOptions", "start_server"]
 
 log = logging.getLogger("openair.server")
 
@@ -39,6 +40,16 @@ log = logging.getLogger("openair.server")
 DEFAULT_EXTENSIONS = frozenset({"noreply", "pipelining", "usec", "gettime"})
 _BINDS = frozenset({"BIND", "BIND_NOLISTEN"})
 _WILDCARD_HOSTS = frozenset({"", "0.0.0.0", "::"})
+
+
+class MonitorHook(Protocol):
+    """What the server needs from an attached web monitor (openair.monitor)."""
+
+    def adopt(self, transport: asyncio.Transport, data: bytes) -> None:
+        """Serve HTTP on a main-port connection whose first bytes were `data`."""
+
+    async def close(self) -> None:
+        """Close the monitor's own listener and its open HTTP connections."""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -56,6 +67,12 @@ class ServerOptions:
     delivery: DeliveryOptions = field(default_factory=DeliveryOptions)
     flow: FlowLimits = field(default_factory=FlowLimits)
     backlog: int = 1024
+    # The web monitor (issue #9, spec 15.2 `monitor`): HTTP on the main port when a connection
+    # starts with an HTTP method, and on `http_port` when given. Read-only unless monitor_post.
+    monitor: bool = True
+    http_port: int | None = None
+    monitor_post: bool = False
+    monitor_hosts: tuple[str, ...] = ("127.0.0.1", "::1")
 
 
 def free_port(requested: int) -> int:
@@ -103,6 +120,8 @@ class Server:
         )
         self.delivered_total = 0
         self.dropped_total: dict[str, int] = {"QUEUE_OVERFLOW": 0, "DELIVERY_FAILED": 0}
+        #: The web monitor attached by `openair.monitor.attach` (None: no HTTP served).
+        self.monitor: MonitorHook | None = None
 
     # -- ConnectionHost -------------------------------------------------------------------------
 
@@ -123,6 +142,19 @@ class Server:
             self._note_bind(conn, msg, outcome)
         self._apply(outcome, conn.conn_id)
         return outcome
+
+    def http_takeover(self, conn: ServerConnection, data: bytes) -> bool:
+        """Hand a connection that began with an HTTP method to the monitor (as Psyclone did).
+
+        Returns False (the connection stays an OpenAIR one) when no monitor is attached.
+        """
+        monitor = self.monitor
+        if monitor is None or conn.transport is None:
+            return False
+        self._conns.pop(conn.conn_id, None)
+        self.router.connection_closed(conn.conn_id, now_ns=time.time_ns())  # nothing bound yet
+        monitor.adopt(conn.transport, data)
+        return True
 
     def callback_opened(self, conn: ServerConnection, module: str) -> None:
         log.info("event=callback conn=%d module=%s", conn.conn_id, module)
@@ -229,6 +261,10 @@ class Server:
         )
         self.router.status_extra = self._status_counters
         self._apply(self.router.start(time.time_ns()), 0)  # OA-SESS-31: System.Ready
+        if self.options.monitor:
+            from openair.monitor import attach  # the monitor is optional: import it lazily
+
+            self.monitor = await attach(self)
         await self._listener.start_serving()
         log.info(
             "event=listening host=%s port=%d whiteboards=%s extensions=%s",
@@ -281,6 +317,8 @@ class Server:
             log.warning("event=shutdown phase=grace_over pending=%d", self.dispatcher.pending)
         self._final = True
         abandoned = await self.dispatcher.stop()  # counted DELIVERY_FAILED
+        if self.monitor is not None:
+            await self.monitor.close()
         await self._close_connections()
         if self._tasks:
             await asyncio.gather(*self._tasks, return_exceptions=True)

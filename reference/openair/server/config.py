@@ -62,6 +62,8 @@ class ServerLimits:
     max_type_bytes: int = 255  # OA-TYPE-4
     max_type_segments: int = 32  # OA-TYPE-4
     frame_deadline_ms: int = 30_000  # OA-FRAME-12
+    stream_push_buffer: int = 100  # OA-STREAM-8: samples buffered per push subscriber
+    max_wait_ms: int = 60_000  # OA-STREAM-7: a longer WAIT_FOR_* timeout is clipped to this
 
     def __post_init__(self) -> None:
         for name in self.__slots__:

@@ -55,6 +55,8 @@ log = logging.getLogger("openair.server")
 #: Requests a module may send on a connection where the server is the requester; answered, not
 #: paired (a tolerance: OA-SESS-28 forbids them, but answering costs nothing, OA-SESS-10/KEEP-2).
 _ANSWERS = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
+#: First bytes that make a main-port connection an HTTP one (the monitor, as psyProbe was).
+_HTTP_METHODS = (b"GET ", b"HEAD ", b"POST ", b"PUT ", b"OPTIONS ", b"DELETE ")
 
 
 class Role(enum.Enum):
@@ -89,6 +91,9 @@ class ConnectionHost(Protocol):
         self, conn: ServerConnection, msg: Message, *, tag: FrameTag, received_ns: int
     ) -> Outcome:
         """Hand one request to the router and act on everything but the replies."""
+
+    def http_takeover(self, conn: ServerConnection, data: bytes) -> bool:
+        """Give a connection that starts with an HTTP method to the monitor; False: keep it."""
 
     def callback_opened(self, conn: ServerConnection, module: str) -> None:
         """Note that `conn` became the callback connection of `module` (OA-SESS-7)."""
@@ -172,6 +177,8 @@ class ServerConnection(asyncio.Protocol):
         if self._closing:
             return  # OA-FRAME-9: nothing after a failure or a close is processed
         self._last_byte = self.last_traffic = time.monotonic()
+        if self.frames_in == 0 and self._taken_by_http(data):
+            return
         try:
             self._reader.feed(data)
             while not self._closing and (frame := self._reader.next_frame()) is not None:
@@ -181,6 +188,15 @@ class ServerConnection(asyncio.Protocol):
             self._framing_error(exc)
             return
         self._arm_deadline()
+
+    def _taken_by_http(self, data: bytes) -> bool:
+        """Hand a fresh responder connection that starts with an HTTP method to the monitor."""
+        if self.role is not Role.RESPONDER or self._reader.buffered:
+            return False
+        if not data[:8].startswith(_HTTP_METHODS) or not self.host.http_takeover(self, data):
+            return False
+        self._closing = True  # the monitor owns the transport now
+        return True
 
     def eof_received(self) -> bool | None:
         if not self._closing and self._reader.in_frame:

@@ -133,6 +133,9 @@ class Router:
         self.server_name = server_name
         #: Extra counters (the adapter's queues) that STATUS reports beside the router's own.
         self.status_extra: Callable[[], Mapping[str, object]] | None = None
+        #: Called with (whiteboard, stored message, its deliveries) after every stored post; the
+        #: web monitor's tap. It must do O(1) work and never raise (routing waits for it).
+        self.observer: Callable[[str, Message, tuple[Delivery, ...]], None] | None = None
         self.address = address
         self.port = port
         self.limits = limits
@@ -350,6 +353,8 @@ class Router:
         except StoreFailedError as err:  # OA-WB-3: not stored, so not acknowledged
             return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
         deliveries = self._decide(board, stored, now_ns)
+        if self.observer is not None:
+            self.observer(board.name, stored, deliveries)
         if msg.noreply and self._noreply:  # OA-MSG-15, OA-WB-8: handle() would drop the ack
             return Outcome(deliveries=deliveries)
         ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=board.name, now_ns=now_ns)  # OA-WB-3

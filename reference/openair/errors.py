@@ -46,6 +46,7 @@ class ErrorCode(enum.IntEnum):
     STREAM_UNKNOWN = 600
     SAMPLE_UNKNOWN = 601
     SAMPLE_INVALID = 602
+    LOCK_UNKNOWN = 603
     API_MISUSE = 900
     CONNECTION_CLOSED = 901
     REQUEST_TIMEOUT = 902
@@ -323,36 +324,51 @@ class ShuttingDownError(PeerError):
 
 
 class StreamUnknownError(PeerError):
-    """The stream named by a media command does not exist."""
+    """The stream named by a media command, or by the to of a push subscription, does not exist."""
 
     code = ErrorCode.STREAM_UNKNOWN
     name = "STREAM_UNKNOWN"
     blame = Blame.PEER
     reply = "RECEIVE_ERROR"
     closes = False
-    requirements = ("OA-STREAM-3",)
+    requirements = ("OA-STREAM-3", "OA-STREAM-8")
 
 
 class SampleUnknownError(PeerError):
-    """No sample matches the id or time asked for."""
+    """No sample matches the id or time asked for, or none arrived before a wait timed out."""
 
     code = ErrorCode.SAMPLE_UNKNOWN
     name = "SAMPLE_UNKNOWN"
     blame = Blame.PEER
     reply = "RECEIVE_ERROR"
     closes = False
-    requirements = ("OA-STREAM-6",)
+    requirements = ("OA-STREAM-6", "OA-STREAM-7")
 
 
 class SampleInvalidError(RemoteProtocolError):
-    """A sample is malformed or exceeds the stream's hard limit."""
+    """A sample is malformed, does not match the chunks of its request, or its payload alone
+    exceeds the stream's byte limit.
+    """
 
     code = ErrorCode.SAMPLE_INVALID
     name = "SAMPLE_INVALID"
     blame = Blame.REMOTE
     reply = "DATA_NOT_ACCEPTED"
     closes = False
-    requirements = ("OA-STREAM-5",)
+    requirements = ("OA-STREAM-5", "OA-STREAM-10", "OA-STREAM-13")
+
+
+class LockUnknownError(PeerError):
+    """UNLOCK_SAMPLES names a lock id that the stream never gave out, that is already released, or
+    that another connection holds.
+    """
+
+    code = ErrorCode.LOCK_UNKNOWN
+    name = "LOCK_UNKNOWN"
+    blame = Blame.PEER
+    reply = "RECEIVE_ERROR"
+    closes = False
+    requirements = ("OA-XSTREAM-5",)
 
 
 class ApiMisuseError(LocalProtocolError):
@@ -429,6 +445,7 @@ ERRORS: dict[str, type[OpenAIRError]] = {
     "STREAM_UNKNOWN": StreamUnknownError,
     "SAMPLE_UNKNOWN": SampleUnknownError,
     "SAMPLE_INVALID": SampleInvalidError,
+    "LOCK_UNKNOWN": LockUnknownError,
     "API_MISUSE": ApiMisuseError,
     "CONNECTION_CLOSED": ConnectionClosedError,
     "REQUEST_TIMEOUT": RequestTimeoutError,
@@ -459,6 +476,7 @@ __all__ = [
     "FrameUnknownTagError",
     "LimitExceededError",
     "LocalProtocolError",
+    "LockUnknownError",
     "MessageInvalidError",
     "NameUnresolvedError",
     "OpenAIRError",

@@ -29,7 +29,8 @@ from openair.message import Message
 from openair.server.config import ServerConfig, ServerLimits, default_config, load_config
 from openair.server.delivery import DeliveryOptions, Dispatcher
 from openair.server.protocol import FlowLimits, Role, ServerConnection
-from openair.server.router import ModuleInfo, Outcome, Router
+from openair.server.pusher import Pusher
+from openair.server.router import ModuleInfo, Outcome, Router, SamplePush
 from openair.server.store import HistoryStore, open_store
 
 __all__ = ["DEFAULT_EXTENSIONS", "MonitorHook", "Server", "ServerOptions", "start_server"]
@@ -37,7 +38,8 @@ __all__ = ["DEFAULT_EXTENSIONS", "MonitorHook", "Server", "ServerOptions", "star
 log = logging.getLogger("openair.server")
 
 #: Extensions the reference server implements; `durable` is added only with a durable store.
-DEFAULT_EXTENSIONS = frozenset({"noreply", "pipelining", "usec", "gettime"})
+DEFAULT_EXTENSIONS = frozenset({"noreply", "pipelining", "usec", "gettime", "typed-streams"})
+_TICK_S = 0.1  # OA-XSTREAM-7: Idle alarms are checked at least this often
 _BINDS = frozenset({"BIND", "BIND_NOLISTEN"})
 _WILDCARD_HOSTS = frozenset({"", "0.0.0.0", "::"})
 
@@ -102,7 +104,8 @@ class Server:
         self.port = options.port
         self.limits = options.limits
         self.flow = options.flow
-        self.extensions = _extensions(options.extensions, store)
+        wanted = options.extensions | {"monitor"} if options.monitor else options.extensions
+        self.extensions = _extensions(wanted, store)  # OA-EXT-1: `monitor` with the web monitor
         self.router: Router
         self._listener: asyncio.Server | None = None
         self._conns: dict[int, ServerConnection] = {}
@@ -122,6 +125,9 @@ class Server:
         self.dropped_total: dict[str, int] = {"QUEUE_OVERFLOW": 0, "DELIVERY_FAILED": 0}
         #: The web monitor attached by `openair.monitor.attach` (None: no HTTP served).
         self.monitor: MonitorHook | None = None
+        self._pushers: dict[int, Pusher] = {}  # push connections by id (11.6)
+        self._wait_timers: dict[int, tuple[int, asyncio.TimerHandle]] = {}  # ticket -> conn, timer
+        self._ticker: asyncio.TimerHandle | None = None
 
     # -- ConnectionHost -------------------------------------------------------------------------
 
@@ -140,6 +146,13 @@ class Server:
         )
         if msg.type in _BINDS:
             self._note_bind(conn, msg, outcome)
+        self._apply(outcome, conn.conn_id)
+        return outcome
+
+    def handle_binary(self, conn: ServerConnection, chunk: bytes, *, received_ns: int) -> Outcome:
+        outcome = self.router.handle_binary(
+            conn.conn_id, chunk, received_ns=received_ns, now_ns=time.time_ns()
+        )
         self._apply(outcome, conn.conn_id)
         return outcome
 
@@ -162,6 +175,11 @@ class Server:
 
     def connection_lost(self, conn: ServerConnection) -> None:
         self._conns.pop(conn.conn_id, None)
+        self._pushers.pop(conn.conn_id, None)
+        if conn.waiting is not None:
+            timer = self._wait_timers.pop(conn.waiting, None)
+            if timer is not None:
+                timer[1].cancel()
         if self._final:
             return  # the server is going away: no Lost notices into a closed store
         outcome = self.router.connection_closed(conn.conn_id, now_ns=time.time_ns())
@@ -190,6 +208,8 @@ class Server:
         if not self._final:
             for delivery in outcome.deliveries:
                 self.dispatcher.push(delivery)
+        if outcome.wait is not None or outcome.resolved or outcome.pushes or outcome.push_stream:
+            self._apply_streams(outcome, this)
         for conn_id in outcome.close_conns:
             other = self._conns.get(conn_id)
             if other is not None and conn_id != this:
@@ -197,6 +217,60 @@ class Server:
         for name in outcome.discard_queues:
             log.info("event=lost module=%s conn=%d", name, this)
             self._spawn(self.dispatcher.discard(name))  # OA-SESS-15
+
+    def _apply_streams(self, outcome: Outcome, this: int) -> None:
+        """Arm a wait's timeout, send ready deferred replies, push samples (spec 11)."""
+        wait = outcome.wait
+        if wait is not None:
+            delay = max(wait.deadline_ns - time.time_ns(), 0) / 1e9
+            timer = asyncio.get_running_loop().call_later(delay, self._wait_over, wait.ticket)
+            self._wait_timers[wait.ticket] = (this, timer)
+        for ready in outcome.resolved:
+            armed = self._wait_timers.pop(ready.ticket, None)
+            if armed is not None:
+                armed[1].cancel()
+            conn = self._conns.get(ready.conn)
+            if conn is not None:
+                conn.finish_wait(ready.ticket, ready.reply)
+        if outcome.push_stream:
+            conn = self._conns.get(this)
+            if conn is not None:
+                self._pushers[this] = Pusher(
+                    conn,
+                    stream=outcome.push_stream,
+                    capacity=self.limits.stream_push_buffer,
+                )
+                log.info("event=push_subscribe conn=%d stream=%s", this, outcome.push_stream)
+        for push in outcome.pushes:
+            self._push(push)
+
+    def _push(self, push: SamplePush) -> None:
+        for conn_id in push.conns:
+            pusher = self._pushers.get(conn_id)
+            if pusher is not None:
+                dropped = pusher.offer(push.sample)
+                if dropped:
+                    self.dropped_total["SAMPLE_DROPPED"] = (
+                        self.dropped_total.get("SAMPLE_DROPPED", 0) + dropped
+                    )
+        if not self._final:
+            for module in push.modules:
+                self.dispatcher.push_sample(
+                    module, push.stream, push.sample, self.limits.stream_push_buffer
+                )
+
+    def _wait_over(self, ticket: int) -> None:
+        """A WAIT_FOR_*'s timeout passed (OA-STREAM-7)."""
+        self._wait_timers.pop(ticket, None)
+        self._apply(self.router.wait_expired(ticket, time.time_ns()), 0)
+
+    def _tick(self) -> None:
+        """Post due Idle alarms (OA-XSTREAM-7), then check again in `_TICK_S`."""
+        self._ticker = None
+        if self._stopping:
+            return
+        self._apply(self.router.tick(time.time_ns()), 0)
+        self._ticker = asyncio.get_running_loop().call_later(_TICK_S, self._tick)
 
     def _spawn(self, coro: Coroutine[object, object, int]) -> None:
         task = asyncio.get_running_loop().create_task(coro)
@@ -261,6 +335,8 @@ class Server:
         )
         self.router.status_extra = self._status_counters
         self._apply(self.router.start(time.time_ns()), 0)  # OA-SESS-31: System.Ready
+        if "typed-streams" in self.extensions:
+            self._ticker = asyncio.get_running_loop().call_later(_TICK_S, self._tick)
         if self.options.monitor:
             from openair.monitor import attach  # the monitor is optional: import it lazily
 
@@ -307,6 +383,10 @@ class Server:
             await asyncio.shield(self._done)
             return
         self._stopping = True
+        if self._ticker is not None:
+            self._ticker.cancel()
+        for _, timer in self._wait_timers.values():
+            timer.cancel()
         log.info("event=shutdown phase=begin pending=%d", self.dispatcher.pending)
         if self._listener is not None:
             self._listener.close()  # stop accepting

@@ -165,8 +165,12 @@ _DEFAULT_PSYSPEC = """\
     <htmldir>html</htmldir>
   </global>
   <whiteboard name="AIRCentral"/>
-  <whiteboard name="WB1"/>
-  <whiteboard name="WB2"/>
+  <whiteboard name="WB1">
+    <streams><stream name="Stream1" maxsize="10"/></streams>
+  </whiteboard>
+  <whiteboard name="WB2">
+    <streams><stream name="Stream2" maxsize="10"/></streams>
+  </whiteboard>
 </psySpec>
 """
 
@@ -193,7 +197,7 @@ def _psyspec_schema() -> etree.XMLSchema:
 
 
 def default_config() -> ServerConfig:
-    """Return the configuration of a server started without one (OA-WB-1, spec 12.1)."""
+    """Return the configuration of a server started without one (OA-WB-1, OA-STREAM-15)."""
     return parse_config(_DEFAULT_PSYSPEC.encode("utf-8"), source="")
 
 

@@ -30,6 +30,8 @@ from openair.message import Message
 from openair.server.protocol import ServerConnection
 from openair.server.queues import DeliveryQueue, QueueItem
 from openair.server.router import Delivery, ModuleInfo
+from openair.server.streams import SampleBuffer, StoredSample
+from openair.server.streamservice import push_message
 
 __all__ = ["DeliveryHost", "DeliveryOptions", "Dispatcher", "ModuleCounters"]
 
@@ -119,12 +121,16 @@ class ModuleDelivery:
         self._outbound: ServerConnection | None = None
         self._outbound_at = ("", 0)
         self._sending = 0  # 1 while an attempt is between the queue and the connection
+        # Samples of the streams the module subscribed to (OA-STREAM-14): one bounded buffer per
+        # stream (OA-STREAM-8); they go before queued messages ("streams outrank messages").
+        self.samples: dict[str, SampleBuffer] = {}
         self.task = asyncio.get_running_loop().create_task(self._run(), name=f"deliver {name}")
 
     @property
     def pending(self) -> int:
         """Items queued, waiting for a retry or in flight."""
-        return len(self.queue) + len(self._retry) + len(self._in_flight) + self._sending
+        buffered = sum(len(b) for b in self.samples.values()) if self.samples else 0
+        return len(self.queue) + buffered + len(self._retry) + len(self._in_flight) + self._sending
 
     def push(self, delivery: Delivery) -> QueueItem | None:
         """Queue one delivery; return the item dropped for room, if any (OA-DELIV-9)."""
@@ -141,6 +147,31 @@ class ModuleDelivery:
     def poke(self) -> None:
         """Look again for a path (the module bound or opened a callback connection)."""
         self._wake.set()
+
+    def push_sample(self, stream: str, sample: StoredSample, capacity: int) -> int:
+        """Buffer a sample of a subscribed stream; return how many were dropped for room."""
+        buffer = self.samples.get(stream)
+        if buffer is None:
+            buffer = self.samples[stream] = SampleBuffer(capacity)
+        dropped = buffer.offer(sample)
+        self._wake.set()
+        return dropped
+
+    def _take_sample(self) -> _Attempt | None:
+        """Return the next buffered sample as a DATASAMPLE delivery (OA-STREAM-14), if any."""
+        for stream, buffer in self.samples.items():
+            taken = buffer.take()
+            if taken is None:
+                continue
+            sample, dropped = taken
+            # Round robin: the stream served goes to the back of the order.
+            self.samples[stream] = self.samples.pop(stream)
+            msg = push_message(
+                sample, stream=stream, to=self.name, dropped=dropped, now_ns=time.time_ns()
+            )
+            item = QueueItem(message=msg, priority=0.0, wb_priority=0.0)
+            return _Attempt(seq=0, item=item)
+        return None
 
     # -- the task -----------------------------------------------------------------------------
 
@@ -291,6 +322,10 @@ class ModuleDelivery:
         if self._retry:
             return heapq.heappop(self._retry)
         if self._has_path():
+            if self.samples:
+                sample = self._take_sample()
+                if sample is not None:
+                    return sample
             item = self.queue.pop(time.time_ns())
             if item is not None:
                 return _Attempt(seq=item.seq, item=item)
@@ -450,6 +485,15 @@ class Dispatcher:
                     dropped,
                     victim.priority,
                 )
+
+    def push_sample(self, module: str, stream: str, sample: StoredSample, capacity: int) -> None:
+        """Buffer a stream sample for a subscribed module (OA-STREAM-8, OA-STREAM-14)."""
+        md = self.modules.get(module)
+        if md is None:
+            md = self.modules[module] = ModuleDelivery(module, self)
+        dropped = md.push_sample(stream, sample, capacity)
+        if dropped:
+            self.host.dropped(module, dropped, "SAMPLE_DROPPED")
 
     def poke(self, module: str) -> None:
         """Tell a module's task that its paths may have changed."""

@@ -65,6 +65,7 @@ class Role(enum.Enum):
     RESPONDER = "responder"
     CALLBACK = "callback"
     OUTBOUND = "outbound"
+    PUSH = "push"  # a stream's push connection (11.6): the server sends DATASAMPLEs
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -91,6 +92,9 @@ class ConnectionHost(Protocol):
         self, conn: ServerConnection, msg: Message, *, tag: FrameTag, received_ns: int
     ) -> Outcome:
         """Hand one request to the router and act on everything but the replies."""
+
+    def handle_binary(self, conn: ServerConnection, chunk: bytes, *, received_ns: int) -> Outcome:
+        """Hand a BinaryM frame's chunk to the router (OA-STREAM-11); act as `handle` does."""
 
     def http_takeover(self, conn: ServerConnection, data: bytes) -> bool:
         """Give a connection that starts with an HTTP method to the monitor; False: keep it."""
@@ -157,6 +161,9 @@ class ServerConnection(asyncio.Protocol):
         self._deadline: asyncio.TimerHandle | None = None
         self._keepalive: asyncio.TimerHandle | None = None
         self.frames_in = 0
+        # A WAIT_FOR_* in progress (OA-STREAM-7): later requests wait behind it (OA-SESS-2).
+        self.waiting: int | None = None
+        self._wait_paused = False
 
     # -- transport callbacks ------------------------------------------------------------------
 
@@ -181,13 +188,42 @@ class ServerConnection(asyncio.Protocol):
             return
         try:
             self._reader.feed(data)
-            while not self._closing and (frame := self._reader.next_frame()) is not None:
+        except RemoteProtocolError as exc:
+            self._framing_error(exc)
+            return
+        self._process(received_ns)
+
+    def _process(self, received_ns: int) -> None:
+        """Act on every complete frame buffered, unless a wait holds the connection."""
+        try:
+            while (
+                not self._closing
+                and self.waiting is None
+                and (frame := self._reader.next_frame()) is not None
+            ):
                 self.frames_in += 1
                 self._on_frame(frame, received_ns)
         except RemoteProtocolError as exc:
             self._framing_error(exc)
             return
+        if self.waiting is not None and not self._wait_paused and self.transport is not None:
+            self._wait_paused = True  # buffer no more than the frames already read
+            self.transport.pause_reading()
         self._arm_deadline()
+
+    def finish_wait(self, ticket: int, reply: Message) -> None:
+        """Send the deferred reply of a WAIT_FOR_* and take requests again (OA-STREAM-7)."""
+        if self.waiting != ticket or self._closing:
+            return
+        self.waiting = None
+        self._send(reply)
+        if self._wait_paused and self.transport is not None:
+            self._wait_paused = False
+            if not self._reading_paused:
+                self.transport.resume_reading()
+        # Later frames already buffered are processed in a later loop turn, not inside the
+        # event (another connection's post) that resolved this wait.
+        asyncio.get_running_loop().call_soon(self._process, time.time_ns())
 
     def _taken_by_http(self, data: bytes) -> bool:
         """Hand a fresh responder connection that starts with an HTTP method to the monitor."""
@@ -228,7 +264,8 @@ class ServerConnection(asyncio.Protocol):
     def resume_writing(self) -> None:
         if self.transport is not None and self._reading_paused and not self._closing:
             self._reading_paused = False
-            self.transport.resume_reading()
+            if not self._wait_paused:
+                self.transport.resume_reading()
 
     # -- frames ---------------------------------------------------------------------------------
 
@@ -242,8 +279,12 @@ class ServerConnection(asyncio.Protocol):
     def _on_request(self, frame: Frame, received_ns: int) -> None:
         """Decode a request, hand it to the router and send its replies in order (OA-SESS-2)."""
         if frame.tag is FrameTag.BINARY:
-            # OA-STREAM-11: a BinaryM frame on the main port names no stream.
-            self._send(self._error_reply("UNKNOWN_COMMAND", "Offending cmd: BinaryOnly"))
+            # OA-STREAM-11: a sample for the connection's current stream, if it has one.
+            outcome = self.host.handle_binary(self, frame.chunks[0], received_ns=received_ns)
+            for reply in outcome.replies:
+                self._send(reply)
+            if outcome.close_this:
+                self.close()
             return
         try:
             msg = from_frame(frame, self._xml_limits)
@@ -260,8 +301,13 @@ class ServerConnection(asyncio.Protocol):
         outcome = self.host.handle(self, msg, tag=frame.tag, received_ns=received_ns)
         for reply in outcome.replies:
             self._send(reply)
+        if outcome.wait is not None:
+            self.waiting = outcome.wait.ticket  # OA-STREAM-7: the reply comes later
         if outcome.close_this:
             self.close()
+        elif outcome.push_stream:
+            self.role = Role.PUSH  # 11.6: the server is the requester now (OA-SESS-28)
+            self.module = msg.sender
         elif frame.tag is FrameTag.RECEIVE and _is_notification(msg, outcome):
             self.role = Role.CALLBACK  # OA-SESS-7, OA-SESS-28: the server is the requester now
             self.module = msg.sender

@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
-from openair.content import ANY_WHITEBOARD, Phase, Registration, TcpLocation
+from openair.content import ANY_WHITEBOARD, Dictionary, Phase, Registration, TcpLocation
 from openair.errors import (
     BindRefusedError,
     MessageInvalidError,
@@ -29,7 +29,7 @@ from openair.errors import (
 from openair.framing import FrameTag
 from openair.matching import PatternIndex, ascii_fold
 from openair.message import Message
-from openair.objects import encode_tcplocation
+from openair.objects import encode_dictionary, encode_tcplocation
 from openair.registration import parse_registration
 from openair.server import commands as cmd
 from openair.server.config import (
@@ -42,6 +42,15 @@ from openair.server.config import (
 from openair.server.retrieve import RETRIEVE, RETRIEVES, answer_retrieve, registration_results
 from openair.server.sessions import ConnId, ModuleInfo, Sessions
 from openair.server.store import HistoryStore
+from openair.server.streams import Alarm, StreamSpec
+from openair.server.streamservice import (
+    PendingWait,
+    SamplePush,
+    StreamOutcome,
+    StreamService,
+    WaitReply,
+    is_media_command,
+)
 from openair.server.whiteboard import Whiteboard, derive
 from openair.times import AirTime
 from openair.types import validate_type
@@ -52,8 +61,18 @@ from openair.wakeup import (
     collection_xml,
     phase_spec_xml,
 )
+from openair.xmlsafe import parse_fragment
 
-__all__ = ["ConnId", "Delivery", "ModuleInfo", "Outcome", "Router"]
+__all__ = [
+    "ConnId",
+    "Delivery",
+    "ModuleInfo",
+    "Outcome",
+    "PendingWait",
+    "Router",
+    "SamplePush",
+    "WaitReply",
+]
 
 _NS_PER_MS = 1_000_000
 _TYPE_CACHE_SIZE = 4096
@@ -88,6 +107,13 @@ class Outcome:
     close_conns: tuple[ConnId, ...] = ()
     close_this: bool = False
     discard_queues: tuple[str, ...] = ()
+    # Streams (spec 11): this request's reply is deferred (a WAIT_FOR_*, OA-STREAM-7); deferred
+    # replies now ready, on any connection; samples to push (OA-STREAM-8, OA-STREAM-14); and the
+    # stream this connection now receives pushes from (its Receive frame, 11.6).
+    wait: PendingWait | None = None
+    resolved: tuple[WaitReply, ...] = ()
+    pushes: tuple[SamplePush, ...] = ()
+    push_stream: str = ""
 
 
 @dataclass(slots=True)
@@ -148,7 +174,17 @@ class Router:
         self._whiteboards = {
             wb.name: Whiteboard.from_config(wb, store) for wb in config.whiteboards
         }
-        self._streams = {s.name for wb in config.whiteboards for s in wb.streams}
+        typed = "typed-streams" in extensions
+        self.streams = StreamService(
+            (
+                StreamSpec.from_config(s, wb.name, typed_streams=typed)
+                for wb in config.whiteboards
+                for s in wb.streams
+            ),
+            typed=typed,
+            noreply=self._noreply,
+            max_wait_ms=limits.max_wait_ms,
+        )
         self._configured = {m.name: m.registration for m in config.modules}  # OA-CONF-5
         self._sessions = Sessions(reserved=self._reserved, port_allocator=port_allocator)
         self._modules = self._sessions.modules  # the same dict: bound modules by name
@@ -193,6 +229,7 @@ class Router:
 
     def connection_closed(self, conn: ConnId, *, now_ns: int) -> Outcome:
         """Forget a connection; a primary one loses its modules (OA-SESS-15)."""
+        self.streams.connection_closed(conn)  # its waits, push subscription and locks end
         names, close = self._sessions.closed(conn)  # their callbacks are closed too
         if not names:
             return Outcome()
@@ -252,8 +289,18 @@ class Router:
             name: {"triggers": len(t.entries), "retrieves": len(t.registration.retrieves)}
             for name, t in sorted(self._triggers.items())
         }
+        streams = {
+            name: {
+                **stream.info(),
+                "added": stream.added_total,
+                "dropped": stream.dropped_total,
+                "subscribers": self.streams.subscribers(name),
+            }
+            for name, stream in self.streams.streams.items()
+        }
         return {
             "whiteboards": boards,
+            "streams": streams,
             "modules": modules,
             "registrations": registrations,
             "bound": len(self._modules),
@@ -289,9 +336,9 @@ class Router:
             return handler(conn, msg, received_ns, now_ns)
         if msg.to in self._modules:
             return self._forward(msg, received_ns, now_ns)
-        if msg.to in self._streams:
-            return self._to_stream(msg, now_ns)
-        if msg.type in cmd.MEDIA_COMMANDS:  # OA-STREAM-3: not FORWARD_FAILED
+        if self.streams.resolve(msg.to) is not None:
+            return self._to_stream(conn, msg, received_ns, now_ns)
+        if is_media_command(msg.type):  # OA-STREAM-3: not FORWARD_FAILED
             return self._no_stream(msg, now_ns)
         return Outcome(replies=(cmd.forward_failed(msg, now_ns=now_ns),))  # OA-SESS-21
 
@@ -304,6 +351,7 @@ class Router:
             "BIND_NOLISTEN": self._bind,
             "RECEIVE_NAME_NOTIFICATION": self._notification_in_message,
             "RESOLVE_REQUEST": self._resolve,
+            "GET_STREAMS": self._get_streams,
             "STATUS": self._status,
             "GET_CAPABILITIES": self._capabilities,
         }
@@ -312,7 +360,15 @@ class Router:
         return {
             "CNS": cns,
             "Config": {**session, "GET_ENTRY": self._entry},
-            "Psyclone": {**session, "Psyclone.Module.Request.CurrentPhase": self._current_phase},
+            "Psyclone": {
+                **session,
+                "Psyclone.Module.Request.CurrentPhase": self._current_phase,
+                **(
+                    {"Psyclone.System.Create.Stream": self._create_stream}
+                    if self.streams.typed
+                    else {}
+                ),
+            },
             "AIRServer": {
                 **session,
                 "GET_ID": self._get_id,
@@ -479,13 +535,64 @@ class Router:
         ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=msg.to, now_ns=now_ns)
         return Outcome(replies=(ack,), deliveries=(delivery,))
 
-    def _to_stream(self, msg: Message, now_ns: int) -> Outcome:
-        """Answer a request to a stream: PING and KEEPALIVE; media commands are not served."""
+    def _to_stream(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """Answer a request to a stream: PING, KEEPALIVE and the media commands (spec 11)."""
         if msg.type in ("PING", "KEEPALIVE"):
             return self._session_reply(msg, msg.to, now_ns)
-        if msg.type in cmd.MEDIA_COMMANDS:
-            return self._no_stream(msg, now_ns)
-        return Outcome(replies=(cmd.unknown_command(msg, sender=msg.to, now_ns=now_ns),))
+        result = self.streams.request(conn, msg, received_ns=received_ns, now_ns=now_ns)
+        return self._stream_outcome(result, now_ns)
+
+    def handle_binary(
+        self, conn: ConnId, chunk: bytes, *, received_ns: int, now_ns: int
+    ) -> Outcome:
+        """Answer a BinaryM frame: a sample for the connection's current stream (OA-STREAM-11)."""
+        if self._shutting_down:  # OA-SESS-24
+            err = ShuttingDownError("the server is shutting down")
+            req = Message(type="BinaryOnly", id="")
+            return Outcome(replies=(self._error(req, err, "CNS", now_ns),), close_this=True)
+        result = self.streams.binary(conn, chunk, received_ns=received_ns, now_ns=now_ns)
+        if result is None:
+            req = Message(type="BinaryOnly", id="")
+            return Outcome(replies=(cmd.unknown_command(req, sender="CNS", now_ns=now_ns),))
+        return self._stream_outcome(result, now_ns)
+
+    def wait_expired(self, ticket: int, now_ns: int) -> Outcome:
+        """Answer a WAIT_FOR_* whose timeout passed (OA-STREAM-7)."""
+        ready = self.streams.wait_expired(ticket, now_ns)
+        return Outcome(resolved=(ready,)) if ready is not None else Outcome()
+
+    def tick(self, now_ns: int) -> Outcome:
+        """Post the Idle alarms that fell due (OA-XSTREAM-7); the adapter calls it on a timer."""
+        alarms = self.streams.tick(now_ns)
+        return Outcome(deliveries=self._post_alarms(alarms, now_ns)) if alarms else Outcome()
+
+    def _stream_outcome(self, result: StreamOutcome, now_ns: int) -> Outcome:
+        deliveries = self._post_alarms(result.alarms, now_ns) if result.alarms else ()
+        return Outcome(
+            replies=result.replies,
+            deliveries=deliveries,
+            wait=result.wait,
+            resolved=result.resolved,
+            pushes=result.pushes,
+        )
+
+    def _post_alarms(self, alarms: tuple[Alarm, ...], now_ns: int) -> tuple[Delivery, ...]:
+        """Post stream alarms as ordinary posts on their whiteboard (OA-XSTREAM-6)."""
+        deliveries: list[Delivery] = []
+        for alarm in alarms:
+            board = self._whiteboards.get(alarm.whiteboard)
+            if board is None:
+                continue
+            post = Message(
+                type=alarm.type,
+                sender=alarm.stream,
+                to=board.name,
+                content=encode_dictionary(Dictionary(entries=alarm.entries)),
+                content_is_xml=True,
+                language="xml",
+            )
+            deliveries.extend(self._post(board, post, now_ns, now_ns).deliveries)
+        return tuple(deliveries)
 
     def _no_stream(self, msg: Message, now_ns: int) -> Outcome:
         """Answer a media command: this server offers no streams (OA-GEN-4, OA-STREAM-3)."""
@@ -535,6 +642,7 @@ class Router:
             for i, (pattern, _, _) in enumerate(old.entries):
                 self._index.remove(pattern, (name, i))
         reg = self.registration(name)
+        self.streams.set_registration(name, reg)  # OA-STREAM-14: inputstream sources
         if reg is None:
             self._sessions.set_registration(name, None)
             return
@@ -568,13 +676,21 @@ class Router:
 
     def _reserved(self, name: str) -> bool:
         """Return whether `name` belongs to a whiteboard, stream or component (OA-SESS-30)."""
-        return name in self._whiteboards or name in self._streams or name in SYSTEM_COMPONENTS
+        return (
+            name in self._whiteboards or name in self.streams.names() or name in SYSTEM_COMPONENTS
+        )
 
     def _receive_frame(self, conn: ConnId, msg: Message, now_ns: int) -> Outcome:
         """Make `conn` the callback connection of `from` (OA-SESS-7); no reply."""
         if msg.type != "RECEIVE_NAME_NOTIFICATION":
             err = MessageInvalidError("a Receive frame must carry RECEIVE_NAME_NOTIFICATION")
             return Outcome(replies=(self._error(msg, err, "CNS", now_ns),))
+        if msg.to and msg.to not in SYSTEM_COMPONENTS and msg.to not in self._whiteboards:
+            stream = self.streams.subscribe_push(conn, msg)  # 11.6: a push connection
+            if stream is not None:
+                return Outcome(push_stream=stream)
+            err2 = StreamUnknownError(f"no stream {msg.to!r} to receive samples from")
+            return Outcome(replies=(self._error(msg, err2, "CNS", now_ns),))
         close = self._sessions.notify(conn, msg)
         if close is None:
             return Outcome(close_this=True)  # no module can ever bind that name
@@ -593,7 +709,7 @@ class Router:
         known = (
             name in SYSTEM_COMPONENTS
             or name in self._whiteboards
-            or name in self._streams
+            or self.streams.resolve(name) is not None  # OA-XSTREAM-1: a type resolves too
             or name in self._modules  # forwarded through the main port (OA-SESS-22)
         )
         if not known:  # NAME_UNRESOLVED: RESOLVE_FAILED keeps its legacy empty content (OA-ERR-6)
@@ -644,6 +760,28 @@ class Router:
     def _entry(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
         return Outcome(replies=(cmd.entry_reply(msg, self.config, now_ns=now_ns),))  # OA-SESS-12
 
+    def _get_streams(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """List the streams (OA-STREAM-16)."""
+        listing = self.streams.listing()
+        answer = cmd.reply(msg, "STREAMS", sender="CNS", now_ns=now_ns, content=listing, xml=True)
+        return Outcome(replies=(answer,))
+
+    def _create_stream(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """Create a stream at run time (OA-XSTREAM-10)."""
+        try:
+            content = msg.content
+            name = _stream_name(content)
+            self.streams.create(
+                content,
+                whiteboards=self._whiteboards,
+                taken=self._reserved(name) or name in self._modules,
+            )
+        except OpenAIRError as err:
+            return Outcome(replies=(self._error(msg, err, "Psyclone", now_ns),))
+        return Outcome(
+            replies=(cmd.reply(msg, "RECEIVE_ACCEPT", sender="Psyclone", now_ns=now_ns),)
+        )
+
     def _current_phase(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
         reg = self.registration(msg.sender)
         return Outcome(replies=(cmd.current_phase_reply(msg, reg, now_ns=now_ns),))  # OA-SESS-13
@@ -676,3 +814,12 @@ def _folded_board(whiteboard: str) -> str:
     """Fold a trigger's `from` for comparison; any / * / empty mean every board (OA-TRIG-2)."""
     folded = ascii_fold(whiteboard.strip())
     return ANY_WHITEBOARD if folded in ("", "any", "*") else folded
+
+
+def _stream_name(content: str) -> str:
+    """Return the `name` of a run-time `<stream>` ("" when there is none to read)."""
+    try:
+        roots = parse_fragment(content)
+    except OpenAIRError:
+        return ""
+    return (roots[0].get("name") or "").strip() if len(roots) == 1 else ""

@@ -56,12 +56,14 @@ enum class errc : int {
     store_failed = 503,
     /// The server is shutting down and accepts no new work.
     shutting_down = 504,
-    /// The stream named by a media command does not exist.
+    /// The stream named by a media command, or by the to of a push subscription, does not exist.
     stream_unknown = 600,
-    /// No sample matches the id or time asked for.
+    /// No sample matches the id or time asked for, or none arrived before a wait timed out.
     sample_unknown = 601,
-    /// A sample is malformed or exceeds the stream's hard limit.
+    /// A sample is malformed, does not match the chunks of its request, or its payload alone exceeds the stream's byte limit.
     sample_invalid = 602,
+    /// UNLOCK_SAMPLES names a lock id that the stream never gave out, that is already released, or that another connection holds.
+    lock_unknown = 603,
     /// The API was used in a way the protocol does not allow (for example sending in a closed state).
     api_misuse = 900,
     /// The connection is closed; the operation cannot complete.
@@ -105,6 +107,7 @@ constexpr std::string_view errc_name(errc e) noexcept {
         case errc::stream_unknown: return "STREAM_UNKNOWN";
         case errc::sample_unknown: return "SAMPLE_UNKNOWN";
         case errc::sample_invalid: return "SAMPLE_INVALID";
+        case errc::lock_unknown: return "LOCK_UNKNOWN";
         case errc::api_misuse: return "API_MISUSE";
         case errc::connection_closed: return "CONNECTION_CLOSED";
         case errc::request_timeout: return "REQUEST_TIMEOUT";
@@ -143,6 +146,7 @@ constexpr blame errc_blame(errc e) noexcept {
         case errc::stream_unknown: return blame::peer;
         case errc::sample_unknown: return blame::peer;
         case errc::sample_invalid: return blame::remote;
+        case errc::lock_unknown: return blame::peer;
         case errc::api_misuse: return blame::local;
         case errc::connection_closed: return blame::local;
         case errc::request_timeout: return blame::local;
@@ -184,6 +188,7 @@ constexpr bool errc_closes(errc e) noexcept {
         case errc::stream_unknown: return false;
         case errc::sample_unknown: return false;
         case errc::sample_invalid: return false;
+        case errc::lock_unknown: return false;
         case errc::api_misuse: return false;
         case errc::connection_closed: return false;
         case errc::request_timeout: return false;
@@ -222,6 +227,7 @@ constexpr std::string_view errc_reply(errc e) noexcept {
         case errc::stream_unknown: return "RECEIVE_ERROR";
         case errc::sample_unknown: return "RECEIVE_ERROR";
         case errc::sample_invalid: return "DATA_NOT_ACCEPTED";
+        case errc::lock_unknown: return "RECEIVE_ERROR";
         case errc::api_misuse: return "";
         case errc::connection_closed: return "";
         case errc::request_timeout: return "";
@@ -257,9 +263,10 @@ constexpr std::string_view errc_text(errc e) noexcept {
         case errc::limit_exceeded: return "A request exceeds a limit other than the frame limits (pipelined requests in flight, triggers per registration, retrieve results).";
         case errc::store_failed: return "The whiteboard could not store the message; it was not accepted.";
         case errc::shutting_down: return "The server is shutting down and accepts no new work.";
-        case errc::stream_unknown: return "The stream named by a media command does not exist.";
-        case errc::sample_unknown: return "No sample matches the id or time asked for.";
-        case errc::sample_invalid: return "A sample is malformed or exceeds the stream's hard limit.";
+        case errc::stream_unknown: return "The stream named by a media command, or by the to of a push subscription, does not exist.";
+        case errc::sample_unknown: return "No sample matches the id or time asked for, or none arrived before a wait timed out.";
+        case errc::sample_invalid: return "A sample is malformed, does not match the chunks of its request, or its payload alone exceeds the stream's byte limit.";
+        case errc::lock_unknown: return "UNLOCK_SAMPLES names a lock id that the stream never gave out, that is already released, or that another connection holds.";
         case errc::api_misuse: return "The API was used in a way the protocol does not allow (for example sending in a closed state).";
         case errc::connection_closed: return "The connection is closed; the operation cannot complete.";
         case errc::request_timeout: return "No reply arrived within the caller's deadline.";
@@ -297,6 +304,7 @@ constexpr std::optional<errc> errc_from_name(std::string_view name) noexcept {
     if (name == "STREAM_UNKNOWN") return errc::stream_unknown;
     if (name == "SAMPLE_UNKNOWN") return errc::sample_unknown;
     if (name == "SAMPLE_INVALID") return errc::sample_invalid;
+    if (name == "LOCK_UNKNOWN") return errc::lock_unknown;
     if (name == "API_MISUSE") return errc::api_misuse;
     if (name == "CONNECTION_CLOSED") return errc::connection_closed;
     if (name == "REQUEST_TIMEOUT") return errc::request_timeout;

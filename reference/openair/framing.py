@@ -44,6 +44,7 @@ __all__ = [
     "FrameTag",
     "binary_sizes",
     "encode_frame",
+    "encode_frame_parts",
 ]
 
 HEADER_SIZE = 12  # 7-byte tag, NUL, uint32 length (OA-FRAME-1)
@@ -121,6 +122,18 @@ def encode_frame(frame: Frame) -> bytes:
     tail = () if frame.tag is FrameTag.BINARY else frame.chunks
     header = frame.tag.value.encode("ascii").ljust(7, b"\0") + b"\0"  # OA-FRAME-1
     return b"".join((header, len(body).to_bytes(4, "little"), body, *tail))  # OA-FRAME-3
+
+
+def encode_frame_parts(frame: Frame) -> tuple[bytes, ...]:
+    """Return the bytes of `frame` as parts to write in order: header and XML, then each chunk.
+
+    Writing the parts one after another sends what `encode_frame` returns without copying the
+    chunks into one buffer (stream samples can be megabytes, spec 11.2).
+    """
+    if frame.tag is FrameTag.BINARY or not frame.chunks:
+        return (encode_frame(frame),)
+    head = Frame(tag=frame.tag, xml=frame.xml)
+    return (encode_frame(head), *frame.chunks)
 
 
 def binary_sizes(xml: bytes) -> tuple[int, ...]:

@@ -339,3 +339,29 @@ def test_get_streams_lists_the_default_streams() -> None:
         await server.stop()
 
     run(body)
+
+
+def test_a_reader_that_declares_pipelining_gets_samples_before_acknowledging() -> None:
+    async def body() -> None:
+        server = await serving()
+        raw = await Raw.open(server.port)
+        note = Message(type="RECEIVE_NAME_NOTIFICATION", to="Stream2", sender="Piped")
+        raw.send(note.with_extra("extensions", "pipelining"), FrameTag.RECEIVE)
+        legacy = await _push_reader(server.port, "Stream2", "OneByOne")
+        writer = await Raw.open(server.port)
+        await writer.ping()
+        for n in range(5):
+            assert (await writer.request(add("Stream2", f"p{n}".encode()))).type == "DATA_ACCEPTED"
+        # OA-DELIV-5: with pipelining, all five arrive though none was acknowledged yet.
+        got = [await _take_push(raw, ack=False) for _ in range(5)]
+        assert [bytes(sample_of(m).payload) for m in got] == [f"p{n}".encode() for n in range(5)]
+        first = await _take_push(legacy, ack=False)  # a legacy reader: one at a time
+        assert bytes(sample_of(first).payload) == b"p0"
+        legacy.send(first.reply("RECEIVE_ACCEPT", sender="OneByOne"))
+        second = await _take_push(legacy, ack=False)
+        assert bytes(sample_of(second).payload) == b"p1" and second.extra("dropped") is None
+        for conn in (raw, legacy, writer):
+            await conn.close()
+        await server.stop()
+
+    run(body)

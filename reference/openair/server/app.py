@@ -26,6 +26,7 @@ from typing import Protocol
 import openair
 from openair.framing import FrameTag
 from openair.message import Message
+from openair.server.commands import declared_extensions
 from openair.server.config import ServerConfig, ServerLimits, default_config, load_config
 from openair.server.delivery import DeliveryOptions, Dispatcher
 from openair.server.protocol import FlowLimits, Role, ServerConnection
@@ -146,8 +147,23 @@ class Server:
         )
         if msg.type in _BINDS:
             self._note_bind(conn, msg, outcome)
+        if outcome.push_stream:
+            self._open_push(conn, msg, outcome.push_stream)
         self._apply(outcome, conn.conn_id)
         return outcome
+
+    def _open_push(self, conn: ServerConnection, msg: Message, stream: str) -> None:
+        """Start pushing a stream's samples on `conn` (11.6).
+
+        One sample at a time (OA-DELIV-5), or up to max-in-flight when the reader declared
+        `pipelining` in its notification (OA-SESS-19).
+        """
+        declared = declared_extensions(msg) or frozenset()
+        window = self.limits.max_in_flight if "pipelining" in declared else 1
+        self._pushers[conn.conn_id] = Pusher(
+            conn, stream=stream, capacity=self.limits.stream_push_buffer, window=window
+        )
+        log.info("event=push_subscribe conn=%d stream=%s window=%d", conn.conn_id, stream, window)
 
     def handle_binary(self, conn: ServerConnection, chunk: bytes, *, received_ns: int) -> Outcome:
         outcome = self.router.handle_binary(
@@ -208,7 +224,7 @@ class Server:
         if not self._final:
             for delivery in outcome.deliveries:
                 self.dispatcher.push(delivery)
-        if outcome.wait is not None or outcome.resolved or outcome.pushes or outcome.push_stream:
+        if outcome.wait is not None or outcome.resolved or outcome.pushes:
             self._apply_streams(outcome, this)
         for conn_id in outcome.close_conns:
             other = self._conns.get(conn_id)
@@ -232,15 +248,6 @@ class Server:
             conn = self._conns.get(ready.conn)
             if conn is not None:
                 conn.finish_wait(ready.ticket, ready.reply)
-        if outcome.push_stream:
-            conn = self._conns.get(this)
-            if conn is not None:
-                self._pushers[this] = Pusher(
-                    conn,
-                    stream=outcome.push_stream,
-                    capacity=self.limits.stream_push_buffer,
-                )
-                log.info("event=push_subscribe conn=%d stream=%s", this, outcome.push_stream)
         for push in outcome.pushes:
             self._push(push)
 

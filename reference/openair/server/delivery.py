@@ -27,11 +27,11 @@ from typing import Protocol
 
 from openair.errors import ConnectionClosedError, OpenAIRError
 from openair.message import Message
-from openair.server.protocol import ServerConnection
+from openair.server.protocol import ServerConnection, Wire
 from openair.server.queues import DeliveryQueue, QueueItem
 from openair.server.router import Delivery, ModuleInfo
 from openair.server.streams import SampleBuffer, StoredSample
-from openair.server.streamservice import push_message
+from openair.server.streamservice import push_frame, push_message
 
 __all__ = ["DeliveryHost", "DeliveryOptions", "Dispatcher", "ModuleCounters"]
 
@@ -169,7 +169,7 @@ class ModuleDelivery:
             msg = push_message(
                 sample, stream=stream, to=self.name, dropped=dropped, now_ns=time.time_ns()
             )
-            item = QueueItem(message=msg, priority=0.0, wb_priority=0.0)
+            item = QueueItem(message=msg, priority=0.0, wb_priority=0.0, wire=push_frame(msg))
             return _Attempt(seq=0, item=item)
         return None
 
@@ -215,7 +215,7 @@ class ModuleDelivery:
             conn.flush()
 
     def _watch(
-        self, attempt: _Attempt, conn: ServerConnection, msg: Message, wire: bytes | None
+        self, attempt: _Attempt, conn: ServerConnection, msg: Message, wire: Wire | None
     ) -> None:
         """Send, then wait for the acknowledgement (OA-DELIV-4) within the deadline (OA-DELIV-11).
 

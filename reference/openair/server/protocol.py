@@ -41,14 +41,14 @@ from openair.errors import (
     OpenAIRError,
     RemoteProtocolError,
 )
-from openair.framing import Frame, FrameReader, FrameTag, encode_frame
+from openair.framing import Frame, FrameReader, FrameTag, encode_frame, encode_frame_parts
 from openair.message import Message
 from openair.server.config import ServerLimits
 from openair.server.router import Outcome
 from openair.times import AirTime
 from openair.xmlsafe import XmlLimits, local_name, parse_xml
 
-__all__ = ["ConnectionHost", "FlowLimits", "Role", "ServerConnection"]
+__all__ = ["ConnectionHost", "FlowLimits", "Role", "ServerConnection", "Wire"]
 
 log = logging.getLogger("openair.server")
 
@@ -56,6 +56,8 @@ log = logging.getLogger("openair.server")
 #: paired (a tolerance: OA-SESS-28 forbids them, but answering costs nothing, OA-SESS-10/KEEP-2).
 _ANSWERS = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
 #: First bytes that make a main-port connection an HTTP one (the monitor, as psyProbe was).
+#: Chunks of at least this many bytes are written as parts of their own, never joined (11.2).
+_SEPARATE_CHUNKS = 64 * 1024
 _HTTP_METHODS = (b"GET ", b"HEAD ", b"POST ", b"PUT ", b"OPTIONS ", b"DELETE ")
 
 
@@ -105,6 +107,10 @@ class ConnectionHost(Protocol):
     def connection_lost(self, conn: ServerConnection) -> None:
         """Forget a closed connection."""
 
+
+#: A message's frame written already: its bytes, or parts to write in order (a header and the
+#: XML, then chunks that are never copied into one buffer; spec 11.2).
+Wire = bytes | tuple[bytes, ...]
 
 #: Called with the reply, or with the error that ends the wait (a decode error, the connection
 #: closing, CancelledError when an unanswered KEEPALIVE is passed over).
@@ -364,7 +370,7 @@ class ServerConnection(asyncio.Protocol):
         )
 
     def _send(
-        self, msg: Message, tag: FrameTag = FrameTag.MESSAGE, wire: bytes | None = None
+        self, msg: Message, tag: FrameTag = FrameTag.MESSAGE, wire: Wire | None = None
     ) -> bool:
         """Write one message; return False when the connection is closing or was cut off.
 
@@ -372,29 +378,24 @@ class ServerConnection(asyncio.Protocol):
         """
         if self._closing or self.transport is None:
             return False
-        if wire is not None and tag is FrameTag.MESSAGE:
-            data = wire
+        if wire is None or tag is not FrameTag.MESSAGE:
+            parts = self._encode(msg, tag)
         else:
-            try:
-                data = encode_frame(to_frame(msg, tag))
-            except ApiMisuseError as exc:  # OA-MSG-14: content XML cannot carry
-                log.error(
-                    "event=encode_error conn=%d type=%s detail=%s", self.conn_id, msg.type, exc
-                )
-                reply = self._error_reply("RECEIVE_ERROR", "", msg.isresponse)
-                data = encode_frame(to_frame(reply))
+            parts = (wire,) if isinstance(wire, bytes) else wire
+        size = sum(len(part) for part in parts)
         if self.role is Role.RESPONDER:
-            self.transport.write(data)  # at once: OA-LIM-5 counts what the peer has not read
+            for part in parts:  # at once: OA-LIM-5 counts what the peer has not read
+                self.transport.write(part)
             buffered = self.transport.get_write_buffer_size()
         else:
             # As the requester (deliveries), the frames of one event-loop turn go out in one
             # write: one system call for a burst of wakeups instead of one each.
             if not self._batch:
                 asyncio.get_running_loop().call_soon(self._flush)
-            self._batch.append(data)
-            self._batch_bytes += len(data)
+            self._batch.extend(parts)
+            self._batch_bytes += size
             buffered = self.transport.get_write_buffer_size() + self._batch_bytes
-        self._written += len(data)
+        self._written += size
         self.last_traffic = time.monotonic()
         if buffered > self.host.flow.hard_cap:
             log.warning(
@@ -409,11 +410,37 @@ class ServerConnection(asyncio.Protocol):
             self._unflushed.append(self._written)
         return True
 
+    def _encode(self, msg: Message, tag: FrameTag) -> tuple[bytes, ...]:
+        """Encode a frame; large binary chunks (stream samples) stay separate parts, uncopied."""
+        try:
+            frame = to_frame(msg, tag)
+            if msg.binary and sum(len(c) for c in msg.binary) >= _SEPARATE_CHUNKS:
+                return encode_frame_parts(frame)
+            return (encode_frame(frame),)
+        except ApiMisuseError as exc:  # OA-MSG-14: content XML cannot carry
+            log.error("event=encode_error conn=%d type=%s detail=%s", self.conn_id, msg.type, exc)
+            reply = self._error_reply("RECEIVE_ERROR", "", msg.isresponse)
+            return (encode_frame(to_frame(reply)),)
+
     def _flush(self) -> None:
-        """Write the frames batched in this event-loop turn."""
+        """Write the frames batched in this event-loop turn: small ones joined, big ones alone."""
         batch, self._batch, self._batch_bytes = self._batch, [], 0
-        if batch and self.transport is not None and not self._closing:
-            self.transport.write(batch[0] if len(batch) == 1 else b"".join(batch))
+        if not batch or self.transport is None or self._closing:
+            return
+        if len(batch) == 1:
+            self.transport.write(batch[0])
+            return
+        small: list[bytes] = []
+        for part in batch:
+            if len(part) < _SEPARATE_CHUNKS:
+                small.append(part)
+                continue
+            if small:
+                self.transport.write(b"".join(small))
+                small = []
+            self.transport.write(part)
+        if small:
+            self.transport.write(b"".join(small))
 
     def _in_flight(self) -> int:
         """Count the replies still waiting in the write buffer (OA-LIM-5's requests in flight)."""
@@ -424,7 +451,7 @@ class ServerConnection(asyncio.Protocol):
             self._unflushed.popleft()
         return len(self._unflushed)
 
-    def send_request(self, msg: Message, wire: bytes | None = None) -> asyncio.Future[Message]:
+    def send_request(self, msg: Message, wire: Wire | None = None) -> asyncio.Future[Message]:
         """Send a request on a CALLBACK or OUTBOUND connection; return its reply's future.
 
         `wire`, when given, is the Message frame of `msg` already written (sent as it is).
@@ -446,7 +473,7 @@ class ServerConnection(asyncio.Protocol):
             future.set_result(msg)
         return future
 
-    def send_request_cb(self, msg: Message, wire: bytes | None, callback: ReplyCallback) -> None:
+    def send_request_cb(self, msg: Message, wire: Wire | None, callback: ReplyCallback) -> None:
         """Send a request like `send_request`, but hand the outcome to `callback` (no future).
 
         The callback runs at most once, possibly before this returns (a closed connection,

@@ -15,7 +15,7 @@ import time
 from openair.message import Message
 from openair.server.protocol import ServerConnection
 from openair.server.streams import SampleBuffer, StoredSample
-from openair.server.streamservice import push_message
+from openair.server.streamservice import push_frame, push_message
 
 __all__ = ["Pusher"]
 
@@ -25,13 +25,16 @@ log = logging.getLogger("openair.server")
 class Pusher:
     """The push subscription of one connection to one stream."""
 
-    def __init__(self, conn: ServerConnection, *, stream: str, capacity: int) -> None:
+    def __init__(
+        self, conn: ServerConnection, *, stream: str, capacity: int, window: int = 1
+    ) -> None:
         self.conn = conn
         self.stream = stream
         self.buffer = SampleBuffer(capacity)
+        self.window = window  # samples sent and not yet acknowledged (OA-DELIV-5)
         self.sent = 0
         self.refused = 0
-        self._busy = False
+        self._in_flight = 0
 
     @property
     def reader(self) -> str:
@@ -41,24 +44,24 @@ class Pusher:
     def offer(self, sample: StoredSample) -> int:
         """Take a new sample; return how many were dropped for room (OA-STREAM-8)."""
         dropped = self.buffer.offer(sample)
-        if not self._busy:
-            self._send_next()
+        self._send_more()
         return dropped
 
-    def _send_next(self) -> None:
-        taken = self.buffer.take()
-        if taken is None or self.conn.is_closing:
-            return
-        sample, dropped = taken
-        msg = push_message(
-            sample, stream=self.stream, to=self.reader, dropped=dropped, now_ns=time.time_ns()
-        )  # OA-STREAM-12
-        self._busy = True
-        self.conn.send_request_cb(msg, None, self._acked)
+    def _send_more(self) -> None:
+        while self._in_flight < self.window and not self.conn.is_closing:
+            taken = self.buffer.take()
+            if taken is None:
+                break
+            sample, dropped = taken
+            msg = push_message(
+                sample, stream=self.stream, to=self.reader, dropped=dropped, now_ns=time.time_ns()
+            )  # OA-STREAM-12
+            self._in_flight += 1
+            self.conn.send_request_cb(msg, push_frame(msg), self._acked)
         self.conn.flush()
 
     def _acked(self, reply: Message | None, error: BaseException | None) -> None:
-        self._busy = False
+        self._in_flight -= 1
         if error is not None or reply is None:
             return  # the connection closed: the subscription ends with it
         self.sent += 1
@@ -70,4 +73,4 @@ class Pusher:
                 self.reader,
                 reply.type,
             )
-        self._send_next()
+        self._send_more()

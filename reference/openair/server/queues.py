@@ -36,7 +36,8 @@ class QueueItem:
     wb_priority: float
     due_ns: int = 0
     seq: int = 0
-    wire: bytes | None = field(default=None, compare=False, repr=False)  # frame of `message`
+    # The frame of `message` already written: bytes, or parts (header + XML, then chunks).
+    wire: bytes | tuple[bytes, ...] | None = field(default=None, compare=False, repr=False)
 
     @property
     def order(self) -> tuple[float, float, int]:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from bisect import bisect_left, bisect_right
 from collections import deque
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterator, Sequence
 from dataclasses import dataclass, field
 from itertools import islice
 
@@ -96,11 +96,20 @@ class StreamSpec:
         return self.alarms or self.whiteboard
 
     @classmethod
-    def from_config(cls, cfg: StreamConfig, whiteboard: str, *, typed_streams: bool) -> StreamSpec:
+    def from_config(
+        cls,
+        cfg: StreamConfig,
+        whiteboard: str,
+        *,
+        typed_streams: bool,
+        whiteboards: Collection[str] | None = None,
+    ) -> StreamSpec:
         """Return the spec of a configured `<stream>`; ContentInvalidError for bad values.
 
         Without `typed_streams`, or without a `type` attribute, the typed attributes are
-        ignored and the stream is an untyped ring (OA-STREAM-9).
+        ignored and the stream is an untyped ring (OA-STREAM-9). When `whiteboards` is given,
+        an `alarms` attribute must name one of them (spec 11.7). Type uniqueness is the
+        caller's to check (OA-XSTREAM-1).
         """
         shown = f"stream {cfg.name!r}"
         if not math.isfinite(cfg.maxsize) or cfg.maxsize < 0:
@@ -117,9 +126,12 @@ class StreamSpec:
             type_ = validate_type(attrs["type"])  # OA-XSTREAM-1
         except TypeInvalidError as exc:
             raise ContentInvalidError(f"{shown}: {exc.detail}") from None
-        hardsize = _int_attr(attrs, "hardsize", shown)
+        hardsize = _int_attr(attrs, "hardsize", shown, positive=True)
         hardcount = _int_attr(attrs, "hardcount", shown)
         idle = _int_attr(attrs, "idle", shown)
+        alarms = attrs.get("alarms", "")
+        if alarms and whiteboards is not None and alarms not in whiteboards:
+            raise ContentInvalidError(f"{shown}: alarms {alarms!r} names no whiteboard")
         try:
             return cls(
                 name=cfg.name,
@@ -127,10 +139,10 @@ class StreamSpec:
                 type=type_,
                 hardsize=maxsize if hardsize is None else hardsize,
                 hardcount=cfg.maxcount if hardcount is None else hardcount,
-                softsize=_int_attr(attrs, "softsize", shown),
+                softsize=_int_attr(attrs, "softsize", shown, positive=True),
                 softcount=_int_attr(attrs, "softcount", shown),
                 idle_ms=DEFAULT_IDLE_MS if idle is None else idle,
-                alarms=attrs.get("alarms", ""),
+                alarms=alarms,
                 maxsize=maxsize,
                 maxcount=cfg.maxcount,
             )
@@ -138,14 +150,19 @@ class StreamSpec:
             raise ContentInvalidError(exc.detail) from None
 
 
-def _int_attr(attrs: dict[str, str], key: str, shown: str) -> int | None:
-    """Return attribute `key` as a non-negative decimal integer, or None when absent."""
+def _int_attr(attrs: dict[str, str], key: str, shown: str, *, positive: bool = False) -> int | None:
+    """Return attribute `key` as a decimal integer (>= 0, or > 0), or None when absent."""
     text = attrs.get(key)
     if text is None:
         return None
     value = text.strip()
-    if not (value.isascii() and value.isdigit()) or len(value) > 19:
-        raise ContentInvalidError(f"{shown}: {key} {text!r} is not a non-negative integer")
+    if (
+        not (value.isascii() and value.isdigit())
+        or len(value) > 19
+        or (positive and not int(value))
+    ):
+        what = "a positive" if positive else "a non-negative"
+        raise ContentInvalidError(f"{shown}: {key} {text!r} is not {what} integer")
     return int(value)
 
 
@@ -172,10 +189,13 @@ class StoredSample:
     sample: DataSample  # carries builtin:id and builtin:timestamp as set by the stream
     size: int  # payload bytes
     parts: tuple[bytes, bytes | memoryview, bytes] = field(repr=False)
+    # The whole chunk, joined once when the sample was stored; `sample.payload` and `parts[1]`
+    # are views into it, so every reader and subscriber is sent these bytes without a copy.
+    wire: bytes = field(default=b"", repr=False)
 
     def chunk(self) -> bytes:
-        """Return the datasample chunk (copies the payload; prefer writing `parts`)."""
-        return b"".join(self.parts)
+        """Return the datasample chunk (the stored bytes; no copy when `wire` is set)."""
+        return self.wire or b"".join(self.parts)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -311,14 +331,22 @@ class Stream:
                 ts = now_ms
             # OA-STREAM-4: the writer's builtin:id is replaced by the stream's.
             kept = s.with_params({BUILTIN_ID: str(ident), BUILTIN_TIMESTAMP: str(ts)})
+            head, _, tail = chunk_parts(kept)
+            size = len(s.payload)
+            # One copy per sample, here; the writer's frame buffer is released with it.
+            wire = b"".join((head, kept.payload, tail))
+            payload = memoryview(wire)[len(head) : len(head) + size]
+            kept = DataSample(payload=payload, params=kept.params)
+            parts = (head, payload, tail)
             out.append(
                 StoredSample(
                     id=ident,
                     timestamp_ms=ts,
                     received_ns=received_ns,
                     sample=kept,
-                    size=len(s.payload),
-                    parts=chunk_parts(kept),
+                    size=size,
+                    parts=parts,
+                    wire=wire,
                 )
             )
             ident += 1
@@ -400,11 +428,12 @@ class Stream:
 
     # -- alarms ---------------------------------------------------------------------------
 
-    def _alarm(self, kind: str, time_ms: int, *extra: tuple[str, str]) -> Alarm:
+    def _alarm(self, kind: str, time_ms: int, **extra: int | str) -> Alarm:
         spec = self.spec
         entries = (("stream", spec.name), ("streamtype", spec.type or ""), ("time", str(time_ms)))
+        more = tuple((k, str(v)) for k, v in extra.items())
         return Alarm(
-            kind=kind, stream=spec.name, whiteboard=spec.alarm_whiteboard, entries=entries + extra
+            kind=kind, stream=spec.name, whiteboard=spec.alarm_whiteboard, entries=entries + more
         )
 
     def _check_seq(self, writer: str, st: StoredSample, now_ms: int) -> Alarm | None:
@@ -416,29 +445,17 @@ class Stream:
         self._writer_seq[writer] = seq
         if previous is None or seq == previous + 1:
             return None
-        return self._alarm(  # OA-XSTREAM-8
-            "Gap",
-            now_ms,
-            ("writer", writer),
-            ("expected", str(previous + 1)),
-            ("received", str(seq)),
-        )
+        # OA-XSTREAM-8
+        return self._alarm("Gap", now_ms, writer=writer, expected=previous + 1, received=seq)
 
     def _limit_alarms(self, soft: int, hard: int, now_ms: int) -> list[Alarm]:
         out: list[Alarm] = []
         if soft and not self._soft_dropping:  # OA-XSTREAM-2: once per crossing, not per add
-            out.append(
-                self._alarm(
-                    "SoftLimit",
-                    now_ms,
-                    ("size", str(self.size)),
-                    ("count", str(self.count)),
-                    ("dropped", str(soft)),
-                )
-            )
+            alarm = self._alarm("SoftLimit", now_ms, size=self.size, count=self.count, dropped=soft)
+            out.append(alarm)
         self._soft_dropping = soft > 0
         if hard:  # OA-XSTREAM-3
-            out.append(self._alarm("HardLimit", now_ms, ("dropped", str(hard))))
+            out.append(self._alarm("HardLimit", now_ms, dropped=hard))
         return out
 
     def idle_due_ns(self) -> int | None:
@@ -457,7 +474,7 @@ class Stream:
         if due is None or now_ns < due:
             return None
         self._idle = True
-        return self._alarm("Idle", now_ns // _NS_PER_MS, ("idle", str(self.spec.idle_ms)))
+        return self._alarm("Idle", now_ns // _NS_PER_MS, idle=self.spec.idle_ms)
 
     # -- lookups --------------------------------------------------------------------------
 
@@ -562,8 +579,8 @@ class Stream:
     ) -> list[StoredSample]:
         """Return the samples within the inclusive time bounds whose params match, oldest first.
 
-        Each (key, glob) matches the parameter's value with the retrieve content glob
-        (OA-RET-8); a missing parameter does not match. `latest` > 0 keeps the newest
+        Each (key, glob) needs a parameter of that key whose value matches the retrieve
+        content glob (OA-RET-8); a missing parameter does not match. `latest` > 0 keeps the newest
         `latest` of them (OA-XSTREAM-9).
         """
         matchers: list[tuple[str, Callable[[str], bool]]] = [
@@ -660,11 +677,9 @@ class Stream:
 
 
 def _params_match(sample: DataSample, matchers: list[tuple[str, Callable[[str], bool]]]) -> bool:
-    for key, match in matchers:
-        value = sample.param(key)
-        if value is None or not match(value):
-            return False
-    return True
+    """Return whether, for each matcher, the sample has a parameter of its key that matches."""
+    params = sample.params
+    return all(any(k == key and match(v) for k, v in params) for key, match in matchers)
 
 
 class SampleBuffer:

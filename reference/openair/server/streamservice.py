@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from lxml import etree
 
-from openair.codec import time_from_element
+from openair.codec import encode_message, time_from_element
 from openair.content import Registration
 from openair.datasample import DataSample, decode_chunk
 from openair.errors import (
@@ -26,7 +26,8 @@ from openair.errors import (
     SampleInvalidError,
     SampleUnknownError,
 )
-from openair.fastcodec import message_with
+from openair.fastcodec import fast_encode_str, message_with
+from openair.framing import Frame, FrameTag, encode_frame
 from openair.matching import ascii_fold, matches
 from openair.message import Message, Slot
 from openair.objects import (
@@ -55,6 +56,10 @@ __all__ = [
     "StreamService",
     "WaitReply",
     "is_media_command",
+    "push_frame",
+    "push_message",
+    "sample_reply",
+    "samples_reply",
 ]
 
 DATASAMPLE_XML = "<datasample/>"
@@ -566,6 +571,17 @@ def push_message(
         extras=extras,
         binary=(sample.chunk(),),
     )
+
+
+def push_frame(msg: Message) -> tuple[bytes, ...]:
+    """Write a DATASAMPLE message built here as frame parts: header and XML, then its chunks.
+
+    The content (`<datasample/>`) is this module's own XML, so the fast encoder may splice it
+    (no lxml per pushed sample); the chunks are the stored bytes, written without a copy.
+    """
+    text = fast_encode_str(msg, xml_content=True)
+    xml = text.encode("utf-8") if text is not None else encode_message(msg)
+    return (encode_frame(Frame(tag=FrameTag.MESSAGE, xml=xml)), *msg.binary)
 
 
 # --- content ----------------------------------------------------------------------------------

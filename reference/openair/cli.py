@@ -25,6 +25,7 @@ def main() -> None:
 
 def _register() -> None:
     """Add every command to the group (called once at import)."""
+    from openair.client.cli_stream import stream
     from openair.ontology.cli_ontology import ontology
     from openair.server.cli_serve import serve
     from openair_conformance.cli import conform
@@ -36,6 +37,7 @@ def _register() -> None:
     main.add_command(conform)
     main.add_command(conform_client)
     main.add_command(ontology)
+    main.add_command(stream)
 
 
 _register()

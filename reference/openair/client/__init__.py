@@ -2,6 +2,8 @@
 
 `Module` is the API for programs (async context manager, no threads); `BlockingModule` wraps it
 for scripts; `ClientConnection` is the sans-I/O core both are built on (spec section 6).
+Streams (spec 11): `Module.stream()` gives a `StreamHandle`, `Module.subscribe_stream()` a
+`StreamSubscription` of `ReceivedSample`s, `Module.alarms()` the `StreamAlarm`s.
 """
 
 from __future__ import annotations
@@ -19,6 +21,9 @@ from openair.client.session import (
     Role,
     State,
 )
+from openair.client.stream_push import StreamSubscription
+from openair.client.stream_wire import ReceivedSample, StreamAlarm, StreamInfo
+from openair.client.streams import StreamHandle, StreamLock
 
 __all__ = [
     "CLIENT_EXTENSIONS",
@@ -30,9 +35,15 @@ __all__ = [
     "Invalid",
     "MessageEvent",
     "Module",
+    "ReceivedSample",
     "Reply",
     "Request",
     "Role",
     "State",
+    "StreamAlarm",
+    "StreamHandle",
+    "StreamInfo",
+    "StreamLock",
+    "StreamSubscription",
     "WakeupEvent",
 ]

@@ -14,11 +14,14 @@ import time
 from collections import deque
 from collections.abc import Callable
 
-from openair.client.session import ClientConnection, Closed, Reply
+from openair.client.session import Buffer, ClientConnection, Closed, Reply
 from openair.errors import ConnectionClosedError, RemoteProtocolError, RequestTimeoutError
 from openair.message import Message
 
 _READ_SIZE = 65536
+# Frame parts at least this large are written as they are (never copied); smaller neighbours are
+# joined first, so that a small sample costs one write rather than one per part.
+_JOIN_BELOW = 16384
 
 log = logging.getLogger("openair.client")
 
@@ -118,6 +121,38 @@ class Link:
         await self._write(data)
         return sent, future
 
+    async def submit_parts(
+        self, encode: Callable[[ClientConnection], list[Buffer]], timeout: float | None
+    ) -> asyncio.Future[Message] | None:
+        """Send a frame given as parts once the window allows; return its reply future.
+
+        `encode` builds the parts (`ClientConnection.send_request_parts` or `send_binary`); it
+        is called once a request slot is free. The parts are written one by one, so a large
+        chunk is not joined into a new buffer first. None when the frame expects no reply
+        (a `noreply` message, OA-MSG-15).
+        """
+        if self.closed:
+            raise ConnectionClosedError("the connection to the server is closed")
+        try:
+            async with asyncio.timeout(timeout):
+                await self._slot()
+        except TimeoutError:
+            raise RequestTimeoutError(f"no request slot within {timeout} s") from None
+        before = self.conn.in_flight
+        parts = encode(self.conn)
+        future: asyncio.Future[Message] | None = None
+        if self.conn.in_flight > before:
+            future = asyncio.get_running_loop().create_future()
+            self._waiting.append(future)
+        self.last_traffic = time.monotonic()
+        for part in _coalesce(parts):
+            self._writer.write(part)
+        try:
+            await self._writer.drain()
+        except OSError as exc:
+            raise ConnectionClosedError(f"write failed: {exc}") from exc
+        return future
+
     async def send_noreply(self, msg: Message) -> Message:
         """Send a `noreply` message: no acknowledgement follows (OA-MSG-15)."""
         if self.closed:
@@ -196,3 +231,20 @@ class Link:
         with contextlib.suppress(Exception):
             await self._writer.wait_closed()
         await asyncio.gather(self._task, return_exceptions=True)
+
+
+def _coalesce(parts: list[Buffer]) -> list[Buffer]:
+    """Join runs of small parts; keep large ones (payloads) as they are, uncopied."""
+    out: list[Buffer] = []
+    small: list[Buffer] = []
+    for part in parts:
+        if memoryview(part).nbytes < _JOIN_BELOW:
+            small.append(part)
+            continue
+        if small:
+            out.append(b"".join(small))
+            small = []
+        out.append(part)
+    if small:
+        out.append(b"".join(small))
+    return out

@@ -23,16 +23,18 @@ import time
 from collections.abc import AsyncIterator, Awaitable, Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 from types import TracebackType
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from openair.client.link import Link
 from openair.client.listener import Listener
 from openair.client.session import CLIENT_EXTENSIONS, DEFAULT_MAX_IN_FLIGHT, ClientConnection
+from openair.client.stream_wire import ReceivedSample, StreamInfo, received_sample
 from openair.content import (
     Phase,
     Registration,
     RegistrationForm,
     RetrieveSpec,
+    StreamRef,
     TcpLocation,
     Trigger,
 )
@@ -56,11 +58,17 @@ from openair.registration import encode_registration, encode_retrieve, encode_re
 from openair.types import is_valid_type, validate_pattern, validate_type
 from openair.wakeup import Wakeup, parse_wakeup
 
+if TYPE_CHECKING:  # stream_push.py and streams.py import this module
+    from openair.client.stream_push import AlarmSubscription, ModuleStreams, StreamSubscription
+    from openair.client.streams import StreamHandle
+
 log = logging.getLogger("openair.client")
 
 AIRCENTRAL = "AIRCentral"
 CNS = "CNS"
 WAKEUP_TYPE = "AIR.Instruct.Wakeup"
+DATASAMPLE_TYPE = "DATASAMPLE"
+ALARM_PATTERN = "AIR.Stream.Alarm.*"
 
 _E = TypeVar("_E")
 
@@ -126,8 +134,17 @@ def _cc(cc: str | Iterable[str]) -> str:
     return cc if isinstance(cc, str) else ";".join(cc)
 
 
+def _stream_refs(streams: str | StreamRef | Iterable[str | StreamRef]) -> tuple[StreamRef, ...]:
+    """Normalise stream subscriptions: a string S is `<inputstream alias=S source=S/>`."""
+    items = (streams,) if isinstance(streams, (str, StreamRef)) else tuple(streams)
+    return tuple(
+        StreamRef(kind="inputstream", alias=s, source=s) if isinstance(s, str) else s for s in items
+    )
+
+
 WakeupCallback = Callable[[WakeupEvent], Awaitable[None] | None]
 MessageCallback = Callable[[MessageEvent], Awaitable[None] | None]
+SampleCallback = Callable[[ReceivedSample], Awaitable[None] | None]
 
 
 class Module:
@@ -139,8 +156,10 @@ class Module:
     `request_timeout` bounds each request (OA-SESS-27: at least 10 s is advised). With
     `reconnect`, a lost primary connection is re-established with exponential backoff from
     `reconnect_delay` to `reconnect_max_delay` seconds. `on_wakeup` / `on_message` receive
-    deliveries instead of the `wakeups()` / `messages()` queues. `keepalive` is the idle time
-    after which KEEPALIVE is sent on the primary connection (OA-KEEP-1; None disables it).
+    deliveries instead of the `wakeups()` / `messages()` queues; `on_sample` receives the
+    stream samples a registration's `inputstream` brings (OA-STREAM-14) instead of `samples()`.
+    `keepalive` is the idle time after which KEEPALIVE is sent on the primary connection
+    (OA-KEEP-1; None disables it).
     """
 
     def __init__(
@@ -161,6 +180,7 @@ class Module:
         keepalive: float | None = 60.0,
         on_wakeup: WakeupCallback | None = None,
         on_message: MessageCallback | None = None,
+        on_sample: SampleCallback | None = None,
         inbox_size: int = 10000,
         now: Callable[[], int] = time.time_ns,
     ) -> None:
@@ -178,10 +198,12 @@ class Module:
         self._reconnect = reconnect
         self._delays = (reconnect_delay, reconnect_max_delay)
         self._keepalive = keepalive
-        self._on_wakeup, self._on_message = on_wakeup, on_message
+        self._on_wakeup, self._on_message, self._on_sample = on_wakeup, on_message, on_sample
         self._now = now
         self._wakeups: asyncio.Queue[WakeupEvent | None] = asyncio.Queue(inbox_size)
         self._messages: asyncio.Queue[MessageEvent | None] = asyncio.Queue(inbox_size)
+        self._samples: asyncio.Queue[ReceivedSample | None] = asyncio.Queue(inbox_size)
+        self._streams: ModuleStreams | None = None
         self._listener = Listener(self._deliver, name=name, now=now)
         self._link: Link | None = None
         self._ready = asyncio.Event()
@@ -221,6 +243,11 @@ class Module:
         return self._link.conn if self._link is not None else None
 
     @property
+    def clock(self) -> Callable[[], int]:
+        """The clock the module stamps its messages with (ns since the epoch)."""
+        return self._now
+
+    @property
     def listen_port(self) -> int | None:
         """The port the module listens on for deliveries, if it listens."""
         return self._listener.port
@@ -246,11 +273,13 @@ class Module:
         for task in list(self._tasks):
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
+        if self._streams is not None:
+            await self._streams.close()
         link, self._link = self._link, None
         if link is not None:
             await link.close()
         await self._listener.close()
-        for queue in (self._wakeups, self._messages):
+        for queue in (self._wakeups, self._messages, self._samples):
             with contextlib.suppress(asyncio.QueueFull):
                 queue.put_nowait(None)  # wakes a waiting consumer; a full queue drains first
         self._ready.set()
@@ -397,6 +426,13 @@ class Module:
             else:
                 await self._wakeups.put(event)  # a full inbox holds the acknowledgement back
             return None
+        if msg.type == DATASAMPLE_TYPE:  # OA-STREAM-14: a stream this module subscribed to
+            sample = received_sample(msg, received_ns)  # SAMPLE_INVALID is answered
+            if self._on_sample is not None:
+                await self._call(self._on_sample, sample)
+            else:
+                await self._samples.put(sample)  # a full inbox holds the acknowledgement back
+            return None
         direct = MessageEvent(message=msg, received_ns=received_ns)
         if self._on_message is not None:
             await self._call(self._on_message, direct)
@@ -432,6 +468,15 @@ class Module:
                 return await queue.get()
         except TimeoutError:
             return None
+
+    async def next_sample(self, timeout: float | None = None) -> ReceivedSample | None:
+        """Return the next stream sample delivered to the module, or None (timeout or closed)."""
+        return await self._next(self._samples, timeout)
+
+    async def samples(self) -> AsyncIterator[ReceivedSample]:
+        """Iterate over stream samples delivered to the module (its `inputstream`s)."""
+        while (sample := await self.next_sample()) is not None:
+            yield sample
 
     async def wakeups(self) -> AsyncIterator[WakeupEvent]:
         """Iterate over wakeups as they arrive, until the module closes."""
@@ -565,14 +610,21 @@ class Module:
         retrieves: Iterable[RetrieveSpec] = (),
         *,
         allow_self_triggering: bool = False,
+        streams: str | StreamRef | Iterable[str | StreamRef] = (),
     ) -> Registration:
         """Replace this module's registration (OA-REG-1); it is re-sent after a reconnect.
 
         A string trigger is a pattern on any whiteboard; patterns are validated first
         (OA-MATCH-7). Sent as the `<module>` form to AIRCentral (OA-REG-3), which Psyclone
-        also reads with its retrieves.
+        also reads with its retrieves. `streams` subscribes to streams by name, type or type
+        pattern (`<inputstream>`, OA-STREAM-14): their samples arrive through `samples()`.
         """
-        phase = Phase(name="Default", triggers=_triggers(triggers), retrieves=tuple(retrieves))
+        phase = Phase(
+            name="Default",
+            triggers=_triggers(triggers),
+            retrieves=tuple(retrieves),
+            streams=_stream_refs(streams),
+        )
         reg = Registration(
             module=self.name,
             form=RegistrationForm.MODULE,
@@ -623,6 +675,41 @@ class Module:
         sent, reply = await self._request(msg)
         _expect(sent, reply, "RESOLVE_SUCCESS")
         return parse_tcplocation(reply.content)
+
+    # -- streams (stream_push.py, streams.py) ----------------------------------------------
+
+    def _stream_side(self) -> ModuleStreams:
+        if self._streams is None:
+            from openair.client.stream_push import ModuleStreams  # it imports this module
+
+            self._streams = ModuleStreams(self)
+        return self._streams
+
+    def stream(self, target: str) -> StreamHandle:
+        """Return the handle of the stream named (or, typed-streams, typed) `target`."""
+        return self._stream_side().stream(target)
+
+    def subscribe_stream(
+        self, target: str, *, buffer: int = 100, confirm: bool = True, pipelining: bool = False
+    ) -> StreamSubscription:
+        """Return a push subscription to a stream (an async iterator of ReceivedSample).
+
+        `buffer` samples wait here unread before acknowledgements stop (the server then drops
+        samples for this subscriber and reports how many, OA-STREAM-8). `pipelining` declares
+        that extension on the push connection: a server may then send several samples before
+        their acknowledgements (throughput over a long round trip), beyond `buffer`. `confirm`
+        waits until the server counts the subscriber. Use `async with`.
+        """
+        side = self._stream_side()
+        return side.subscribe(target, buffer=buffer, confirm=confirm, pipelining=pipelining)
+
+    def alarms(self, pattern: str = ALARM_PATTERN, *, whiteboard: str = "") -> AlarmSubscription:
+        """Return an async iterator of the stream alarms matching `pattern` (OA-XSTREAM-6)."""
+        return self._stream_side().alarms(validate_pattern(pattern), whiteboard)
+
+    async def list_streams(self) -> list[StreamInfo]:
+        """Return every stream of the server, in configuration order (GET_STREAMS)."""
+        return await self._stream_side().list_streams()
 
     async def ping(self) -> float:
         """Send PING to CNS and return the round-trip time in seconds (OA-SESS-10)."""

@@ -21,10 +21,12 @@ from __future__ import annotations
 
 import enum
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 
-from openair.codec import from_frame, to_frame
+from lxml import etree
+
+from openair.codec import encode_message, from_frame, message_to_element, to_frame
 from openair.errors import (
     ApiMisuseError,
     ConnectionClosedError,
@@ -32,14 +34,20 @@ from openair.errors import (
     OpenAIRError,
     RemoteProtocolError,
 )
-from openair.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
-from openair.message import Message
+from openair.framing import MAX_LENGTH, Frame, FrameLimits, FrameReader, FrameTag, encode_frame
+from openair.message import CANONICAL_SLOTS, Message
 from openair.times import AirTime
 
 #: Extensions this client implements (OA-EXT-1); a module declares a subset (OA-SESS-19).
 CLIENT_EXTENSIONS: frozenset[str] = frozenset({"noreply", "pipelining", "usec", "gettime"})
 
 DEFAULT_MAX_IN_FLIGHT = 256  # OA-LIM-5
+
+#: A byte buffer a frame part may be (written without copying it first).
+Buffer = bytes | bytearray | memoryview
+
+# The slots the codec writes before `binarysizes` (canonical order, spec 3.5).
+_BEFORE_SIZES = frozenset(CANONICAL_SLOTS[: CANONICAL_SLOTS.index("binarysizes")])
 
 #: The acknowledgement a module sends for each kind of delivery (OA-SESS-11, OA-DELIV-4).
 _ANSWER_FOR: dict[str, str] = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
@@ -232,6 +240,44 @@ class ClientConnection:
         reply and does not count against the window. Raises ApiMisuseError when the window is
         full (OA-SESS-18, OA-LIM-7) or on a responder connection (OA-SESS-28).
         """
+        stamped = self._begin_request(msg)
+        data = encode_frame(to_frame(stamped))
+        self._track(stamped.id, stamped.type, expects_reply=not stamped.noreply)
+        return data
+
+    def send_request_parts(self, msg: Message, chunks: Sequence[Sequence[Buffer]]) -> list[Buffer]:
+        """Return request `msg` as frame parts to write in order; the chunks are not copied.
+
+        Like `send_request`, for a message whose binary chunks are given separately: chunk i
+        is the concatenation of the byte buffers `chunks[i]` (e.g. `datasample.chunk_parts`),
+        announced in `binarysizes` (OA-FRAME-4). `msg.binary` must be empty.
+        """
+        if msg.binary:
+            raise ApiMisuseError("give the chunks either in msg.binary or as parts, not both")
+        sizes = [sum(memoryview(part).nbytes for part in parts) for parts in chunks]
+        stamped = self._begin_request(msg)
+        head = encode_frame(Frame(tag=FrameTag.MESSAGE, xml=_xml_with_sizes(stamped, sizes)))
+        self._track(stamped.id, stamped.type, expects_reply=not stamped.noreply)
+        return [head, *(part for parts in chunks for part in parts)]
+
+    def send_binary(self, parts: Sequence[Buffer]) -> list[Buffer]:
+        """Return a `BinaryM` frame holding the concatenation of `parts` (OA-FRAME-5).
+
+        The reply (a stream's DATA_ACCEPTED, or UNKNOWN_COMMAND) is paired like any other
+        (its `isresponse` is empty, OA-SESS-33); the parts are not copied.
+        """
+        size = sum(memoryview(part).nbytes for part in parts)
+        if size > MAX_LENGTH:
+            raise ApiMisuseError(f"a BinaryM body of {size} bytes does not fit the uint32 length")
+        if self._state is State.REQUESTER and len(self._in_flight) >= self.window:
+            raise ApiMisuseError(f"{self.window} request(s) already in flight")  # OA-SESS-18
+        self._transition(Action.SEND_REQUEST)
+        self._track("", FrameTag.BINARY.value, expects_reply=True)
+        header = FrameTag.BINARY.value.encode("ascii") + b"\0" + size.to_bytes(4, "little")
+        return [header, *parts]  # OA-FRAME-1: "BinaryM" is exactly 7 bytes
+
+    def _begin_request(self, msg: Message) -> Message:
+        """Check that request `msg` may be sent now and return it stamped (OA-TIME-2)."""
         if self._state is State.REQUESTER:
             if msg.noreply and "noreply" not in self.extensions:
                 raise ApiMisuseError("noreply needs the noreply extension")  # OA-GEN-2
@@ -239,12 +285,14 @@ class ClientConnection:
                 raise ApiMisuseError(f"{self.window} request(s) already in flight")  # OA-SESS-18
         self._transition(Action.SEND_REQUEST)
         stamped = self.last_sent = self._stamp(msg)
-        data = encode_frame(to_frame(stamped))
-        if not stamped.noreply:
-            self._in_flight.append(_Pending(id=stamped.id, type=stamped.type))
+        return stamped
+
+    def _track(self, request_id: str, type: str, *, expects_reply: bool) -> None:
+        """Count a request sent; one that expects a reply waits for it in order (OA-SESS-33)."""
+        if expects_reply:
+            self._in_flight.append(_Pending(id=request_id, type=type))
             self.counters.in_flight_peak = max(self.counters.in_flight_peak, self.in_flight)
         self.counters.requests_sent += 1
-        return data
 
     def send_notification(self, msg: Message) -> bytes:
         """Return the `Receive` frame that makes this a callback connection (OA-SESS-7).
@@ -368,3 +416,22 @@ class ClientConnection:
         self._in_flight.popleft()
         self.counters.replies_received += 1
         return Reply(request_id=head.id, message=msg)
+
+
+def _xml_with_sizes(msg: Message, sizes: Sequence[int]) -> bytes:
+    """Encode `msg` announcing chunks of `sizes` (OA-FRAME-4) without having the chunks.
+
+    The slots go where the codec writes them for a message that holds its chunks: after
+    `netprotocol`, before `content` and the extension slots (canonical order, spec 3.5).
+    """
+    if not sizes:
+        return encode_message(msg)
+    root = message_to_element(msg)
+    at = next((i for i, el in enumerate(root) if el.tag not in _BEFORE_SIZES), len(root))
+    total = etree.Element("totalbinarysize")
+    total.text = str(sum(sizes))
+    listed = etree.Element("binarysizes")
+    listed.text = ",".join(map(str, sizes))
+    root.insert(at, total)
+    root.insert(at, listed)
+    return bytes(etree.tostring(root, encoding="UTF-8"))

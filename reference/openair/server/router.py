@@ -36,6 +36,7 @@ from openair.server.config import (
     AIRCENTRAL,
     DEFAULT_WB_PRIORITY,
     SYSTEM_COMPONENTS,
+    ConfigError,
     ServerConfig,
     ServerLimits,
 )
@@ -176,11 +177,7 @@ class Router:
         }
         typed = "typed-streams" in extensions
         self.streams = StreamService(
-            (
-                StreamSpec.from_config(s, wb.name, typed_streams=typed)
-                for wb in config.whiteboards
-                for s in wb.streams
-            ),
+            _stream_specs(config, typed=typed),
             typed=typed,
             noreply=self._noreply,
             max_wait_ms=limits.max_wait_ms,
@@ -596,7 +593,7 @@ class Router:
 
     def _no_stream(self, msg: Message, now_ns: int) -> Outcome:
         """Answer a media command: this server offers no streams (OA-GEN-4, OA-STREAM-3)."""
-        err = StreamUnknownError(f"no stream {msg.to!r} (this server offers no media streams)")
+        err = StreamUnknownError(f"no stream named {msg.to!r}")
         return Outcome(replies=(self._error(msg, err, msg.to or "CNS", now_ns),))
 
     # --- registrations --------------------------------------------------------------------
@@ -823,3 +820,25 @@ def _stream_name(content: str) -> str:
     except OpenAIRError:
         return ""
     return (roots[0].get("name") or "").strip() if len(roots) == 1 else ""
+
+
+def _stream_specs(config: ServerConfig, *, typed: bool) -> list[StreamSpec]:
+    """Read the configured streams (spec 11.1, 11.7); ConfigError for values that cannot hold."""
+    boards = [wb.name for wb in config.whiteboards]
+    specs: list[StreamSpec] = []
+    types: set[str] = set()
+    for wb in config.whiteboards:
+        for s in wb.streams:
+            try:
+                spec = StreamSpec.from_config(s, wb.name, typed_streams=typed, whiteboards=boards)
+            except OpenAIRError as err:
+                raise ConfigError(
+                    f"{config.source or 'psySpec'}: stream {s.name!r}: {err.detail}"
+                ) from None
+            if spec.type is not None:
+                folded = ascii_fold(spec.type)
+                if folded in types:  # OA-XSTREAM-1: unique ignoring case
+                    raise ConfigError(f"stream {s.name!r}: the type {spec.type!r} is used twice")
+                types.add(folded)
+            specs.append(spec)
+    return specs

@@ -214,10 +214,11 @@ class StreamService:
             raise ContentInvalidError("<stream> needs a name")
         if taken or name in self._states:
             raise ContentInvalidError(f"the name {name!r} is already in use")
-        if board not in set(whiteboards):
+        if board not in set(whiteboards := list(whiteboards)):
             raise ContentInvalidError(f"<stream whiteboard={board!r}> names no whiteboard")
         cfg = _stream_config(el, name)
-        spec = StreamSpec.from_config(cfg, board, typed_streams=self.typed)
+        boards = list(whiteboards)
+        spec = StreamSpec.from_config(cfg, board, typed_streams=self.typed, whiteboards=boards)
         if spec.type is not None and ascii_fold(spec.type) in self._by_type:
             raise ContentInvalidError(f"the stream type {spec.type!r} is already in use")
         self._add(spec)
@@ -294,8 +295,7 @@ class StreamService:
         for state in self._states.values():
             if state.waits:
                 state.waits = [w for w in state.waits if w.conn != conn]
-            if state.stream.spec.typed:
-                state.stream.release(conn)  # OA-XSTREAM-5: locks end with their connection
+            state.stream.release(conn)  # OA-XSTREAM-5: locks end with their connection
         for ticket in [t for t, w in self._waits.items() if w.conn == conn]:
             del self._waits[ticket]
 
@@ -685,8 +685,12 @@ def _search(content: str) -> tuple[int | None, int | None, list[tuple[str, str]]
     after = until = None
     params: list[tuple[str, str]] = []
     latest = 0
+    seen: set[str] = set()
     for child in elements(roots[0]):
         kind = local_name(child)
+        if kind != "param" and kind in seen:
+            raise ContentInvalidError(f"<samplesearch> holds <{kind}> twice")
+        seen.add(kind)
         if kind == "aftertime":
             after = _bound(child)
         elif kind == "untiltime":

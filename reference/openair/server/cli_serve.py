@@ -11,7 +11,7 @@ import sys
 
 import click
 
-from openair.server.app import ServerOptions, start_server
+from openair.server.app import Server, ServerOptions, start_server
 from openair.server.config import ConfigError
 from openair.server.store import StoreSpecError
 
@@ -19,6 +19,13 @@ __all__ = ["serve"]
 
 _LEVELS = ("debug", "info", "warning", "error")
 _GC_GEN0 = 50_000  # allocations between gen-0 collections
+
+
+def _hosts(extra: tuple[str, ...]) -> tuple[str, ...]:
+    """Return the addresses that may post through the monitor: loopback and `extra`."""
+    hosts = ["127.0.0.1", "::1"]
+    hosts.extend(h.strip() for h in extra if h.strip() and h.strip() not in hosts)
+    return tuple(hosts)
 
 
 def _tune_gc() -> None:
@@ -41,6 +48,8 @@ async def _run(options: ServerOptions) -> None:
             loop.add_signal_handler(sig, lambda: loop.create_task(server.stop()))
     boards = ", ".join(server.whiteboards)
     click.echo(f"listening on {server.host}:{server.port} (whiteboards: {boards})")
+    if server.monitor is not None:
+        click.echo(_monitor_line(server))
     sys.stdout.flush()
     try:
         await server.serve_forever()
@@ -51,6 +60,17 @@ async def _run(options: ServerOptions) -> None:
             with contextlib.suppress(NotImplementedError, ValueError):
                 loop.remove_signal_handler(sig)
                 signal.signal(sig, signal.SIG_IGN)
+
+
+def _monitor_line(server: Server) -> str:
+    """Describe where the web monitor answers (the main port, and the HTTP port if any)."""
+    host = "127.0.0.1" if server.host in ("", "0.0.0.0", "::") else server.host
+    urls = [f"http://{host}:{server.port}/"]
+    http_port = getattr(server.monitor, "http_port", None)
+    if http_port is not None:
+        urls.append(f"http://{host}:{http_port}/")
+    mode = "posting allowed" if server.options.monitor_post else "read-only"
+    return f"monitor on {' and '.join(urls)} ({mode})"
 
 
 @click.command("serve")
@@ -81,13 +101,47 @@ async def _run(options: ServerOptions) -> None:
     type=click.Choice(_LEVELS, case_sensitive=False),
     help="Log level (stderr).",
 )
-def serve(host: str, port: int, config_path: str | None, store: str, log_level: str) -> None:
+@click.option(
+    "--http-port",
+    type=click.IntRange(0, 65535),
+    default=None,
+    help="Also serve the web monitor on this port (0: any free port), on the same host.",
+)
+@click.option(
+    "--monitor-post",
+    is_flag=True,
+    help="Allow posting from the monitor's page (POST /api/post); read-only without it.",
+)
+@click.option(
+    "--monitor-host",
+    "monitor_hosts",
+    multiple=True,
+    metavar="ADDRESS",
+    help="An address besides loopback that may post through the monitor (repeatable).",
+)
+@click.option(
+    "--no-monitor",
+    is_flag=True,
+    help="Serve no HTTP at all: the main port speaks OpenAIR only.",
+)
+def serve(
+    host: str,
+    port: int,
+    config_path: str | None,
+    store: str,
+    log_level: str,
+    http_port: int | None,
+    monitor_post: bool,
+    monitor_hosts: tuple[str, ...],
+    no_monitor: bool,
+) -> None:
     """Run the OpenAIR reference server until SIGINT or SIGTERM.
 
-    When it is ready it prints one line, `listening on HOST:PORT (whiteboards: …)`, on stdout;
-    log lines (`event=NAME key=value …`) go to stderr. On a signal it shuts down gracefully:
-    new requests get SHUTTING_DOWN, decided deliveries are attempted for up to 5 s, the store
-    is closed.
+    When it is ready it prints one line, `listening on HOST:PORT (whiteboards: …)`, on stdout,
+    then `monitor on URL… (read-only|posting allowed)` unless --no-monitor: the web monitor
+    answers HTTP on the main port (and on --http-port when given). Log lines
+    (`event=NAME key=value …`) go to stderr. On a signal it shuts down gracefully: new requests
+    get SHUTTING_DOWN, decided deliveries are attempted for up to 5 s, the store is closed.
 
     \b
     Exit codes:
@@ -98,7 +152,18 @@ def serve(host: str, port: int, config_path: str | None, store: str, log_level: 
     logging.basicConfig(
         level=log_level.upper(), stream=sys.stderr, format="%(asctime)s %(levelname)s %(message)s"
     )
-    options = ServerOptions(host=host, port=port, config_path=config_path, store=store)
+    if no_monitor and (http_port is not None or monitor_post or monitor_hosts):
+        raise click.UsageError("--no-monitor cannot be combined with other monitor options")
+    options = ServerOptions(
+        host=host,
+        port=port,
+        config_path=config_path,
+        store=store,
+        monitor=not no_monitor,
+        http_port=http_port,
+        monitor_post=monitor_post,
+        monitor_hosts=_hosts(monitor_hosts),
+    )
     try:
         asyncio.run(_run(options))
     except ConfigError as exc:

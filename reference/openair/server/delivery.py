@@ -263,6 +263,9 @@ class ModuleDelivery:
         elif msg.noreply or reply.type == _ACK_FOR.get(msg.type, "RECEIVE_ACCEPT"):
             self.counters.delivered += 1
             self._d.host.delivered(self.name, 1)
+            hook = self._d.on_delivered
+            if hook is not None:
+                hook(self.name, entry.attempt.item)
         else:
             self._refused(msg, f"{reply.type}: {reply.content[:200]}")
 
@@ -468,6 +471,8 @@ class Dispatcher:
         self.modules: dict[str, ModuleDelivery] = {}
         self._idle_waiters: list[asyncio.Future[None]] = []
         self.on_drop: Callable[[str, QueueItem], None] | None = None
+        #: Called with (module, item) for each acknowledged delivery: the monitor's latency tap.
+        self.on_delivered: Callable[[str, QueueItem], None] | None = None
 
     def push(self, delivery: Delivery) -> None:
         """Queue a delivery for its module, dropping per OA-DELIV-9 when the queue is full."""

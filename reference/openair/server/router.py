@@ -517,7 +517,10 @@ class Router:
             self._lost_notices += 1  # a name that makes no valid type, or a failing store
             return ()
         board.received += 1
-        return self._decide(board, stored, now_ns)
+        deliveries = self._decide(board, stored, now_ns)
+        if self.observer is not None:
+            self.observer(board.name, stored, deliveries)
+        return deliveries
 
     def _forward(self, msg: Message, received_ns: int, now_ns: int) -> Outcome:
         """Queue a message for a bound module, unchanged, and acknowledge it (OA-SESS-22)."""

@@ -12,7 +12,7 @@ import sys
 import click
 
 from openair.server.app import Server, ServerOptions, start_server
-from openair.server.config import ConfigError
+from openair.server.config import ConfigError, ServerLimits
 from openair.server.store import StoreSpecError
 
 __all__ = ["serve"]
@@ -124,6 +124,20 @@ def _monitor_line(server: Server) -> str:
     is_flag=True,
     help="Serve no HTTP at all: the main port speaks OpenAIR only.",
 )
+@click.option(
+    "--stream-push-buffer",
+    default=ServerLimits().stream_push_buffer,
+    show_default=True,
+    type=click.IntRange(1, 1_000_000),
+    help="Samples buffered per stream subscriber before its oldest are dropped (OA-STREAM-8).",
+)
+@click.option(
+    "--max-wait-ms",
+    default=ServerLimits().max_wait_ms,
+    show_default=True,
+    type=click.IntRange(1, 24 * 3600 * 1000),
+    help="The longest a WAIT_FOR_* may wait; longer timeouts are clipped (OA-STREAM-7).",
+)
 def serve(
     host: str,
     port: int,
@@ -134,6 +148,8 @@ def serve(
     monitor_post: bool,
     monitor_hosts: tuple[str, ...],
     no_monitor: bool,
+    stream_push_buffer: int,
+    max_wait_ms: int,
 ) -> None:
     """Run the OpenAIR reference server until SIGINT or SIGTERM.
 
@@ -163,6 +179,7 @@ def serve(
         http_port=http_port,
         monitor_post=monitor_post,
         monitor_hosts=_hosts(monitor_hosts),
+        limits=ServerLimits(stream_push_buffer=stream_push_buffer, max_wait_ms=max_wait_ms),
     )
     try:
         asyncio.run(_run(options))

@@ -21,6 +21,8 @@ import click
 from openair.catalogue import Requirement, load_catalogue
 from openair_conformance.engine import (
     DEFAULT_FAIL_ON,
+    DEFAULT_STREAM,
+    EngineError,
     NoCasesSelected,
     RunOptions,
     TargetUnreachable,
@@ -229,6 +231,13 @@ def _fuzz_available() -> bool:
     help="Examples per fuzzing case (openair_conformance.fuzz).",
 )
 @click.option("--replay", metavar="SEED", help="Replay one fuzzing run.")
+@click.option(
+    "--stream",
+    default=DEFAULT_STREAM,
+    show_default=True,
+    metavar="NAME",
+    help="The stream the stream cases use (not applicable when it does not resolve).",
+)
 def run_command(
     target: str,
     cases: tuple[str, ...],
@@ -243,6 +252,7 @@ def run_command(
     verbose: bool,
     fuzz_examples: int | None,
     replay: str | None,
+    stream: str,
 ) -> None:
     """Run the suite against TARGET (HOST:PORT; the port defaults to 10000)."""
     try:
@@ -259,18 +269,22 @@ def run_command(
         click.echo(
             "note: openair_conformance.fuzz is not installed; fuzz options ignored", err=True
         )
-    options = RunOptions(
-        target=address,
-        case_globs=cases,
-        sections=sections,
-        jobs=jobs,
-        timeout_scale=timeout_scale,
-        expectations=expectations,
-        fail_on=verdicts,
-        verbose=verbose,
-        fuzz_examples=fuzz_examples,
-        replay=replay,
-    )
+    try:
+        options = RunOptions(
+            target=address,
+            case_globs=cases,
+            sections=sections,
+            jobs=jobs,
+            timeout_scale=timeout_scale,
+            expectations=expectations,
+            fail_on=verdicts,
+            verbose=verbose,
+            fuzz_examples=fuzz_examples,
+            replay=replay,
+            stream=stream,
+        )
+    except EngineError as exc:
+        raise click.BadParameter(str(exc), param_hint="--stream") from exc
     reporters = load_reporters(
         sys.stdout, verbose=verbose, junit=junit, json_path=json_path, html=html
     )

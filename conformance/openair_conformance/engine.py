@@ -51,6 +51,7 @@ from openair_conformance.registry import RegisteredCase, all_cases, select_cases
 
 __all__ = [
     "DEFAULT_FAIL_ON",
+    "DEFAULT_STREAM",
     "LATENCY_MEASURE",
     "EngineError",
     "NoCasesSelected",
@@ -65,6 +66,7 @@ __all__ = [
 DEFAULT_FAIL_ON = frozenset({Verdict.FAIL, Verdict.ERROR, Verdict.UNEXPECTED_PASS})
 LATENCY_MEASURE = "post_to_wakeup_ms"
 DEFAULT_PORT = 10000
+DEFAULT_STREAM = "Stream1"
 # A case that runs longer than this many deadlines (and at least _MIN_BUDGET s) is stopped and
 # judged ERROR: every wait in the harness is bounded, so only a harness bug gets there.
 _BUDGET_DEADLINES = 60
@@ -93,6 +95,9 @@ class RunOptions:
     verbose: bool = False
     fuzz_examples: int | None = None
     replay: str | None = None
+    #: The stream the stream cases use (spec section 11; Stream1 is offered without a
+    #: configuration, OA-STREAM-15).
+    stream: str = DEFAULT_STREAM
     run_id: str = field(default_factory=lambda: secrets.token_hex(2))
     probe_timeout: float = 10.0
 
@@ -103,6 +108,8 @@ class RunOptions:
             raise EngineError("timeout scale must be a positive number")
         if not self.run_id.isalnum():
             raise EngineError("run id must be letters and digits")
+        if not self.stream or any(ch.isspace() or ch == ";" for ch in self.stream):
+            raise EngineError("stream name must be non-empty, without white space or ';'")
 
     @property
     def target_text(self) -> str:
@@ -186,6 +193,8 @@ class _Run:
         words = ["openair", "conform", self.options.target_text, "--case", info.id]
         if self.options.timeout_scale != 1.0:
             words += ["--timeout-scale", f"{self.options.timeout_scale:g}"]
+        if self.options.stream != DEFAULT_STREAM:
+            words += ["--stream", self.options.stream]
         return shlex.join([*words, *extra])
 
     async def run_case(self, case: RegisteredCase) -> CaseResult:
@@ -200,6 +209,7 @@ class _Run:
             run_id=self.options.run_id,
             fuzz_examples=self.options.fuzz_examples,
             replay=self.options.replay,
+            stream=self.options.stream,
         )
         started = time.monotonic()
         outcome = await self._execute(case, ctx)
@@ -304,6 +314,8 @@ def _options_record(options: RunOptions, server: ServerInfo) -> dict[str, str]:
         record["fuzz_examples"] = str(options.fuzz_examples)
     if options.replay is not None:
         record["replay"] = options.replay
+    if options.stream != DEFAULT_STREAM:
+        record["stream"] = options.stream
     return record
 
 

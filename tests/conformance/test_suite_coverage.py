@@ -11,11 +11,6 @@ from openair.catalogue import load_catalogue
 from openair_conformance.registry import all_cases
 
 _CLIENT = "a rule for clients or modules; the suite plays the client, the server is judged"
-_STREAMS = (
-    "stream model (section 11): checked by the streams work against servers that offer "
-    "streams; every server is judged on OA-STREAM-3 and OA-GEN-4 (STREAM-001)"
-)
-_XSTREAMS = "typed-streams extension: checked with the stream model by the streams work"
 _CONFIG = "about reading a configuration at start-up: not observable over TCP"
 
 NOT_CHECKED: dict[str, str] = {
@@ -46,8 +41,6 @@ NOT_CHECKED: dict[str, str] = {
     "OA-CONF-5": _CONFIG + " (needs a configured module, which the suite cannot know of)",
     "OA-CONF-6": _CONFIG,
     "OA-CONF-7": _CONFIG,
-    **{f"OA-STREAM-{n}": _STREAMS for n in (1, 2, 4, 5, 6, 7, 8, 9, 10, 12)},
-    **{f"OA-XSTREAM-{n}": _XSTREAMS for n in range(1, 10)},
 }
 
 

@@ -2,13 +2,15 @@
 
 Each entry of `CATALOGUE` is a `Mutant`: its id, the fault in words, the requirement IDs it
 breaks, and `active()`, the context manager that puts the fault into the server (tests only;
-nothing is patched outside the block). The mutants live in four modules by spec area:
+nothing is patched outside the block). The mutants live in modules by spec area:
 
 - mutants_matching.py — type matching (section 5);
 - mutants_routing.py — registrations, triggers, cc and wakeups (section 8);
 - mutants_store.py — acknowledging, storing and retrieving (sections 7 and 9);
 - mutants_wire.py — sessions, replies, delivery order, frames and hostile input (2, 6, 10, 13-15);
-- mutants_input.py — reading frames and refusing invalid messages (sections 2, 3, 4, 13).
+- mutants_input.py — reading frames and refusing invalid messages (sections 2, 3, 4, 13);
+- mutants_streams.py — streams: ring, ids, lookups, waits, BinaryM, push, limits, locks and
+  alarms (section 11).
 
 test_mutants.py runs the conformance cases that could catch each mutant against a server
 started with it active, and reports which cases catch which mutant.
@@ -20,6 +22,7 @@ import mutants_input
 import mutants_matching
 import mutants_routing
 import mutants_store
+import mutants_streams
 import mutants_wire
 from mutants_core import CATALOGUE, Mutant
 from mutants_matching import NO_FAULT, Fault, spec_match
@@ -27,4 +30,11 @@ from mutants_matching import NO_FAULT, Fault, spec_match
 __all__ = ["CATALOGUE", "MODULES", "NO_FAULT", "Fault", "Mutant", "spec_match"]
 
 #: The modules whose import registered the mutants.
-MODULES = (mutants_matching, mutants_routing, mutants_store, mutants_wire, mutants_input)
+MODULES = (
+    mutants_matching,
+    mutants_routing,
+    mutants_store,
+    mutants_wire,
+    mutants_input,
+    mutants_streams,
+)

@@ -54,6 +54,7 @@ class CaseContext:
         fuzz_examples: int | None = None,
         replay: str | None = None,
         trace: Trace | None = None,
+        stream: str = "Stream1",
     ) -> None:
         self.case = case
         self.target = target
@@ -63,6 +64,7 @@ class CaseContext:
         self.run_id = run_id
         self.fuzz_examples = fuzz_examples
         self.replay = replay
+        self.stream = stream  # the stream the stream cases use (--stream)
         self.trace = trace if trace is not None else Trace()
         self.repro_args: list[str] = []
         self.vacuous_reason = ""

@@ -224,7 +224,10 @@ class _Tally:
 def _open_subscriber(port: int, stream: str, name: str, relay: bool) -> socket.socket:
     """Connect and make the connection a push subscriber (the relay: one that receives)."""
     sock = connect(port)
-    note = message("RECEIVE_NAME_NOTIFICATION", sender=name, to=stream)
+    # The reader declares `pipelining` (OA-SESS-19), as the kit's client can: the server may
+    # then push up to max-in-flight samples before their acknowledgements (OA-STREAM-8).
+    extra = "<extensions>pipelining</extensions>"
+    note = message("RECEIVE_NAME_NOTIFICATION", sender=name, to=stream, extra=extra)
     sock.sendall(frame(note, b"Receive"))
     if relay:  # the PING answer proves that the relay has taken the Receive frame
         request(sock, bytearray(), message("PING", sender=name, to="CNS"))

@@ -183,10 +183,19 @@ class FramedStream:
             await asyncio.wait_for(self._writer.wait_closed(), 1.0)
 
 
+#: The shortest connect timeout: one SYN retransmission (1 s on Linux) and a margin.
+CONNECT_FLOOR_S = 3.5
+
+
 async def open_stream(
     host: str, port: int, *, label: str, trace: Trace, timeout: float
 ) -> FramedStream:
-    """Connect to host:port; ConnectionLost (noted in the trace) when that fails."""
+    """Connect to host:port; ConnectionLost (noted in the trace) when that fails.
+
+    The timeout is at least `CONNECT_FLOOR_S`: a loaded host's listener may drop a SYN, and the
+    client's first retransmission comes a second later; a case's reply deadline can be shorter.
+    """
+    timeout = max(timeout, CONNECT_FLOOR_S)
     try:
         reader, writer = await asyncio.wait_for(asyncio.open_connection(host, port), timeout)
     except (OSError, TimeoutError) as exc:

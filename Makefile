@@ -10,6 +10,7 @@ PORT   ?= 10000
 PYTEST_ARGS ?=
 
 .PHONY: all venv serve test test-python lint typecheck generate check-generated bench fuzz clean deps-browser
+.PHONY: demo-worldmodel
 
 all: test
 
@@ -60,6 +61,10 @@ test-python: $(STAMP) deps-browser
 
 ## Install what is needed and pass every test.
 test: check-generated lint typecheck test-cpp test-java test-python
+
+## The world-model demo (docs/worldmodel.md): exits 0 when the plan fired and terminated.
+demo-worldmodel: $(STAMP)
+	$(PY) examples/worldmodel/run_demo.py --bound 60
 
 ## Benchmarks (never part of `make test`).
 bench: $(STAMP)
@@ -112,3 +117,18 @@ java:
 ## Build the Java client and run its JUnit tests (every shared vector, a scripted fake server).
 test-java:
 	cd $(JAVA_DIR) && mvn -o -q package
+
+# -- Side-by-side benchmark against mosquitto, NATS, Redis and amqtt (bench/peers) ---------------
+.PHONY: bench-peers
+
+## Install the peers when missing (Debian: mosquitto, nats-server, redis-server; PyPI: amqtt,
+## matplotlib, py-spy into the venv), run every workload on each, write bench/results/.
+## BENCH_PEERS_QUICK=1 makes a short smoke run.
+bench-peers: $(STAMP)
+	@if ! PATH="$$PATH:/usr/sbin:/sbin" sh -c \
+		'command -v mosquitto && command -v nats-server && command -v redis-server' >/dev/null; then \
+		$(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y mosquitto nats-server redis-server; \
+	fi
+	@$(PY) -c "import amqtt, matplotlib" 2>/dev/null && [ -x $(VENV)/bin/py-spy ] \
+		|| $(PY) -m pip install --quiet 'amqtt==0.12.1' 'matplotlib>=3.8' 'py-spy>=0.3.14'
+	$(PY) -m bench.peers

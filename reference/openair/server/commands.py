@@ -24,7 +24,6 @@ from openair.times import AirTime
 
 __all__ = [
     "KNOWN_EXTENSIONS",
-    "MEDIA_COMMANDS",
     "capabilities_reply",
     "current_phase_reply",
     "declared_extensions",
@@ -128,28 +127,6 @@ def unknown_command(req: Message, *, sender: str, now_ns: int) -> Message:
     return reply(
         req, "UNKNOWN_COMMAND", sender=sender, now_ns=now_ns, content=f"Offending cmd: {req.type}"
     )
-
-
-#: The media commands of spec 11.3-11.5 (OA-STREAM-3 answers them for unknown streams).
-MEDIA_COMMANDS: frozenset[str] = frozenset(
-    {
-        "ADD_SAMPLE",
-        "ADD_SAMPLES",
-        "GET_SAMPLE_BY_ID",
-        "GET_SAMPLE_BY_TIME",
-        "GET_SAMPLES_BY_TIME",
-        "GET_NEWEST_DATASAMPLE",
-        "GET_OLDEST_DATASAMPLE",
-        "GET_NEWEST_TIMESTAMP",
-        "GET_OLDEST_TIMESTAMP",
-        "GET_COUNT",
-        "GET_SIZE",
-        "WAIT_FOR_FIRST_SAMPLE",
-        "WAIT_FOR_LAST_SAMPLE",
-        "WAIT_FOR_FIRST_AFTERID",
-        "WAIT_FOR_LAST_AFTERID",
-    }
-)
 
 
 def forward_failed(req: Message, *, now_ns: int) -> Message:

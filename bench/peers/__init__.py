@@ -1,0 +1,1 @@
+"""Side-by-side benchmark of the reference server against mosquitto, NATS, Redis and amqtt."""

@@ -43,11 +43,12 @@ check-generated: $(STAMP)
 	$(PY) tools/gen_session_vectors.py --check
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check reference conformance tests tools bench
-	$(VENV)/bin/ruff format --check reference conformance tests tools bench
+	$(VENV)/bin/ruff check reference conformance tests tools bench examples
+	$(VENV)/bin/ruff format --check reference conformance tests tools bench examples
 
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
+	MYPYPATH=reference:conformance:examples/worldmodel $(VENV)/bin/mypy --strict examples/worldmodel
 
 ## Install headless Chromium, its driver and Graphviz when missing (browser tests, diagrams).
 deps-browser:

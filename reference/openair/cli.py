@@ -30,12 +30,14 @@ def _register() -> None:
     from openair.server.cli_serve import serve
     from openair_conformance.cli import conform
     from openair_conformance.client_cli import conform_client
+    from openair_conformance.worldmodel.cli import conform_worldmodel
 
     main.add_command(serve)
     for command in COMMANDS:
         main.add_command(command)
     main.add_command(conform)
     main.add_command(conform_client)
+    main.add_command(conform_worldmodel)
     main.add_command(ontology)
     main.add_command(stream)
 

@@ -13,15 +13,14 @@ import contextlib
 import itertools
 import re
 import struct
-import threading
 import time
 import uuid
-from collections.abc import Coroutine
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import TypeVar
 from xml.sax.saxutils import escape, quoteattr
 
 from lxml import etree
+from server_thread import ServerThread  # noqa: F401 (re-exported)
 
 from openair_conformance.model import Event
 
@@ -347,28 +346,6 @@ class FakeServer:
 
 
 # -- running a server in a background thread ---------------------------------------------------
-
-
-class ServerThread:
-    """A server on 127.0.0.1 in a background event loop (so the CLI can run in the test thread)."""
-
-    def __init__(self, factory: Any) -> None:
-        self._loop = asyncio.new_event_loop()
-        self._thread = threading.Thread(target=self._loop.run_forever, daemon=True)
-        self._thread.start()
-        self.server = self.call(factory())
-        self.port: int = int(self.server.port)
-
-    def call(self, coro: Coroutine[Any, Any, T], timeout: float = 30.0) -> T:
-        return asyncio.run_coroutine_threadsafe(coro, self._loop).result(timeout)
-
-    def stop(self) -> None:
-        # FakeServer has close(); the reference Server has stop().
-        stop = getattr(self.server, "stop", None) or self.server.close
-        with contextlib.suppress(Exception):
-            self.call(stop(), timeout=10.0)
-        self._loop.call_soon_threadsafe(self._loop.stop)
-        self._thread.join(timeout=10.0)
 
 
 class Recorder:

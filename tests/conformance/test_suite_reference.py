@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import threading
 from collections.abc import Iterator
 from typing import Any
 
 import pytest
+from server_thread import ServerThread
 
 from openair_conformance.engine import RunOptions, run
 from openair_conformance.model import CaseResult, RunSummary, Verdict
@@ -35,30 +35,10 @@ LIMITED: dict[str, dict[str, int]] = {
 KNOWN_SERVER_BUGS: dict[str, str] = {}
 
 
-class _ServerThread:
-    """The reference server on 127.0.0.1, port 0, in a background event loop."""
-
-    def __init__(self, **limits: int) -> None:
-        self._loop = asyncio.new_event_loop()
-        self._thread = threading.Thread(target=self._loop.run_forever, daemon=True)
-        self._thread.start()
-        options = app.ServerOptions(host="127.0.0.1", port=0, limits=config.ServerLimits(**limits))
-        self.server: Any = self._call(app.start_server(options))
-        self.port = int(self.server.port)
-
-    def _call(self, coro: Any, timeout: float = 30.0) -> Any:
-        return asyncio.run_coroutine_threadsafe(coro, self._loop).result(timeout)
-
-    def stop(self) -> None:
-        with contextlib.suppress(Exception):
-            self._call(self.server.stop(), timeout=10.0)
-        self._loop.call_soon_threadsafe(self._loop.stop)
-        self._thread.join(timeout=10.0)
-
-
 @contextlib.contextmanager
 def _serving(**limits: int) -> Iterator[tuple[str, int]]:
-    thread = _ServerThread(**limits)
+    options = app.ServerOptions(host="127.0.0.1", port=0, limits=config.ServerLimits(**limits))
+    thread = ServerThread(lambda: app.start_server(options))
     try:
         yield ("127.0.0.1", thread.port)
     finally:

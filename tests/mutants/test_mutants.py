@@ -18,7 +18,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-import threading
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -28,6 +27,7 @@ from typing import Any
 
 import pytest
 from mutants import CATALOGUE, Fault, Mutant, spec_match
+from server_thread import ServerThread
 
 from openair.catalogue import DEFAULT_CATALOGUE, load_catalogue
 from openair_conformance.engine import RunOptions, run
@@ -57,32 +57,12 @@ KNOWN_GAPS: dict[str, str] = {}
 Limits = tuple[tuple[str, int], ...]
 
 
-class _ServerThread:
-    """The reference server on 127.0.0.1, port 0, in a background event loop."""
-
-    def __init__(self, limits: Limits) -> None:
-        self._loop = asyncio.new_event_loop()
-        self._thread = threading.Thread(target=self._loop.run_forever, daemon=True)
-        self._thread.start()
-        options = app.ServerOptions(
-            host="127.0.0.1", port=0, limits=config.ServerLimits(**dict(limits)), grace_s=0.2
-        )
-        self.server: Any = self._call(app.start_server(options))
-        self.port = int(self.server.port)
-
-    def _call(self, coro: Any, timeout: float = 30.0) -> Any:
-        return asyncio.run_coroutine_threadsafe(coro, self._loop).result(timeout)
-
-    def stop(self) -> None:
-        with contextlib.suppress(Exception):
-            self._call(self.server.stop(), timeout=10.0)
-        self._loop.call_soon_threadsafe(self._loop.stop)
-        self._thread.join(timeout=10.0)
-
-
 @contextlib.contextmanager
 def _serving(limits: Limits) -> Iterator[tuple[str, int]]:
-    thread = _ServerThread(limits)
+    options = app.ServerOptions(
+        host="127.0.0.1", port=0, limits=config.ServerLimits(**dict(limits)), grace_s=0.2
+    )
+    thread = ServerThread(lambda: app.start_server(options))
     try:
         yield ("127.0.0.1", thread.port)
     finally:

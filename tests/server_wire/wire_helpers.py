@@ -7,25 +7,23 @@ is bounded by a deadline (`WAIT`); nothing sleeps to synchronise.
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import queue
 import socket
 import threading
 import time
-from collections.abc import Coroutine, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any
 
 from lxml import etree
+from server_thread import ReferenceServer as ServerThread  # noqa: F401 (re-exported)
 
 from openair.codec import from_frame, message_from_element, to_frame
 from openair.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
 from openair.message import Message
 from openair.times import AirTime
 from openair.xmlsafe import local_name, parse_fragment
-
-_T = TypeVar("_T")
 
 #: The bounded deadline (seconds) for any reply, delivery or close the tests wait for.
 WAIT = 15.0
@@ -114,33 +112,6 @@ def read_delivery(module: str, msg: Message, path: str) -> Delivery:
         lasttrigger=lasttrigger,
         has_phase=has_phase,
     )
-
-
-class ServerThread:
-    """The reference server on 127.0.0.1 (port 0) in a background event loop (tests only)."""
-
-    def __init__(self, **options: Any) -> None:
-        from openair.server.app import ServerOptions, start_server
-
-        self._loop = asyncio.new_event_loop()
-        self._thread = threading.Thread(target=self._loop.run_forever, daemon=True)
-        self._thread.start()
-        opts = ServerOptions(host="127.0.0.1", port=0, **options)
-        self.server = self.call(start_server(opts))
-        self.port: int = self.server.port
-
-    def call(self, coro: Coroutine[Any, Any, _T], timeout: float = 30.0) -> _T:
-        """Run a coroutine on the server's loop and wait for its result."""
-        return asyncio.run_coroutine_threadsafe(coro, self._loop).result(timeout)
-
-    def stop(self) -> None:
-        """Stop the server and its loop."""
-        try:
-            self.call(self.server.stop())
-        finally:
-            self._loop.call_soon_threadsafe(self._loop.stop)
-            self._thread.join(timeout=10)
-            self._loop.close()
 
 
 class RawConn:

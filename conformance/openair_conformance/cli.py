@@ -12,9 +12,9 @@ import difflib
 import importlib
 import sys
 import textwrap
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, TextIO, TypeVar
 
 import click
 
@@ -46,7 +46,14 @@ from openair_conformance.model import (
 )
 from openair_conformance.registry import RegisteredCase, all_cases, select_cases
 
-__all__ = ["EXIT_CODES", "ConformGroup", "conform", "load_reporters", "parse_fail_on"]
+__all__ = [
+    "EXIT_CODES",
+    "ConformGroup",
+    "conform",
+    "load_reporters",
+    "parse_fail_on",
+    "report_options",
+]
 
 EXIT_CODES = """\b
 Exit codes:
@@ -56,6 +63,7 @@ Exit codes:
   3  cannot connect to the target, or it does not answer PING"""
 
 _REPORTERS = "openair_conformance.reporters"
+_F = TypeVar("_F", bound=Callable[..., Any])
 
 
 class ConformGroup(click.Group):
@@ -93,6 +101,35 @@ def parse_fail_on(text: str) -> frozenset[Verdict]:
     except ValueError as exc:
         known = ", ".join(v.value for v in Verdict)
         raise click.BadParameter(f"{exc}; verdicts are: {known}, or none") from exc
+
+
+def report_options(command: _F) -> _F:
+    """Add --fail-on, --junit, --json and --html (shared by conform run and conform-client)."""
+    options = (
+        click.option(
+            "--fail-on",
+            "fail_on",
+            default=",".join(sorted(v.value for v in DEFAULT_FAIL_ON)),
+            show_default=True,
+            metavar="LIST",
+            help="Verdicts that make the exit code 1 (comma-separated, or 'none').",
+        ),
+        click.option(
+            "--junit", type=click.Path(dir_okay=False, path_type=Path), help="Write JUnit XML."
+        ),
+        click.option(
+            "--json",
+            "json_path",
+            type=click.Path(dir_okay=False, path_type=Path),
+            help="Write the JSON report.",
+        ),
+        click.option(
+            "--html", type=click.Path(dir_okay=False, path_type=Path), help="Write the HTML report."
+        ),
+    )
+    for option in reversed(options):  # the first listed is applied last: it shows first
+        command = option(command)
+    return command
 
 
 def _import_reporter(module: str, option: str) -> Any | None:
@@ -205,24 +242,7 @@ def _fuzz_available() -> bool:
     metavar="PATH|NAME",
     help="Expectations file, or the name of a shipped one (psyclone-1.1.7).",
 )
-@click.option(
-    "--fail-on",
-    "fail_on",
-    default=",".join(sorted(v.value for v in DEFAULT_FAIL_ON)),
-    show_default=True,
-    metavar="LIST",
-    help="Verdicts that make the exit code 1 (comma-separated, or 'none').",
-)
-@click.option("--junit", type=click.Path(dir_okay=False, path_type=Path), help="Write JUnit XML.")
-@click.option(
-    "--json",
-    "json_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="Write the JSON report.",
-)
-@click.option(
-    "--html", type=click.Path(dir_okay=False, path_type=Path), help="Write the HTML report."
-)
+@report_options
 @click.option("-v", "--verbose", is_flag=True, help="Show traces of every result.")
 @click.option(
     "--fuzz-examples",

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from openair_conformance.cli import load_reporters, parse_fail_on
+from openair_conformance.cli import load_reporters, parse_fail_on, report_options
 from openair_conformance.clientmode.engine import (
     ClientRunOptions,
     NoScenariosSelected,
@@ -24,7 +24,7 @@ from openair_conformance.clientmode.engine import (
     run_client,
 )
 from openair_conformance.clientmode.scenario import ScenarioError, load_scenarios, select_scenarios
-from openair_conformance.engine import DEFAULT_FAIL_ON, exit_code
+from openair_conformance.engine import exit_code
 from openair_conformance.shim.driver import ShimError
 
 __all__ = ["CLIENT_EXIT_CODES", "conform_client"]
@@ -75,24 +75,7 @@ def _list(globs: tuple[str, ...], folder: Path | None) -> None:
     show_default=True,
     help="Multiply every deadline (slow shims or machines).",
 )
-@click.option(
-    "--fail-on",
-    "fail_on",
-    default=",".join(sorted(v.value for v in DEFAULT_FAIL_ON)),
-    show_default=True,
-    metavar="LIST",
-    help="Verdicts that make the exit code 1 (comma-separated, or 'none').",
-)
-@click.option("--junit", type=click.Path(dir_okay=False, path_type=Path), help="Write JUnit XML.")
-@click.option(
-    "--json",
-    "json_path",
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="Write the JSON report.",
-)
-@click.option(
-    "--html", type=click.Path(dir_okay=False, path_type=Path), help="Write the HTML report."
-)
+@report_options
 @click.option(
     "--scenario-dir",
     type=click.Path(exists=True, file_okay=False, path_type=Path),

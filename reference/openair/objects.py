@@ -69,6 +69,7 @@ __all__ = [
     "retrieves_element",
     "serialize",
     "single_child",
+    "time_bound",
 ]
 
 MAX_INT64 = 2**63 - 1
@@ -413,32 +414,38 @@ def _count(el: etree._Element, name: str) -> int | None:
     return values.pop() if values else None
 
 
-def _epoch_ms(text: str, name: str) -> AirTime:
+def _epoch_ms(text: str, name: str, error: type[OpenAIRError] = RetrieveInvalidError) -> AirTime:
     """Read milliseconds since the epoch (OA-RET-9)."""
     value = parse_integer(text)
     if value is None or not -MAX_INT64 - 1 <= value <= MAX_INT64:
-        raise RetrieveInvalidError(f"{name} {text.strip()!r} is not milliseconds since the epoch")
+        raise error(f"{name} {text.strip()!r} is not milliseconds since the epoch")
     return AirTime.from_ms(value)
 
 
-def _bound_child(child: etree._Element, name: str) -> AirTime:
-    """Read an `<afterTime>`/`<untilTime>` child: one time element, or epoch ms as text."""
+def time_bound(
+    child: etree._Element, name: str, error: type[OpenAIRError] = RetrieveInvalidError
+) -> AirTime:
+    """Read an `<afterTime>`/`<untilTime>` element: one time element, or epoch ms as text.
+
+    Retrieve criteria (OA-RET-9) and sample searches (OA-XSTREAM-9) share the form; `error` is
+    the condition a malformed bound raises.
+    """
     inner = elements(child)
     text = "".join(t for t in (child.text, *(c.tail for c in inner)) if t).strip()
     if not inner:
-        return _epoch_ms(text, name)
+        return _epoch_ms(text, name, error)
     if len(inner) > 1 or text:
-        raise RetrieveInvalidError(f"<{name}> must hold one time element or a number")
+        raise error(f"<{name}> must hold one time element or a number")
     try:
         return time_from_element(inner[0])
     except MessageInvalidError as exc:  # OA-TIME-6 inside a criterion is OA-RET-10
-        raise RetrieveInvalidError(f"{name}: {exc.detail}") from None
+        raise error(f"{name}: {exc.detail}") from None
 
 
 def _bound(el: etree._Element, name: str) -> AirTime | None:
     """Read `afterTime` or `untilTime` in any of the three forms of OA-RET-9."""
     texts, children = _criterion_values(el, name)
-    values = {_epoch_ms(t, name) for t in texts} | {_bound_child(c, name) for c in children}
+    values = {_epoch_ms(t, name) for t in texts} | {time_bound(c, name) for c in children}
     if len(values) > 1:
         raise RetrieveInvalidError(f"{name} given with different values")
     return values.pop() if values else None

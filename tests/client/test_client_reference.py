@@ -3,26 +3,16 @@
 from __future__ import annotations
 
 import asyncio
-from collections.abc import AsyncIterator, Awaitable, Callable
+from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 import pytest
+from streams_support import module, run
 
 from openair.client import FailedReplyError, Module, WakeupEvent
 from openair.content import RetrieveSpec, Trigger
 from openair.errors import ConnectionClosedError, WhiteboardUnknownError
 from openair.server.app import ServerOptions, start_server
-
-TIMEOUT = 30.0
-
-
-def run(test: Callable[[], Awaitable[None]]) -> None:
-    """Run one async scenario with an overall deadline (a hang fails instead of blocking)."""
-
-    async def bounded() -> None:
-        await asyncio.wait_for(test(), TIMEOUT)
-
-    asyncio.run(bounded())
 
 
 @asynccontextmanager
@@ -32,10 +22,6 @@ async def server(port: int = 0) -> AsyncIterator[int]:
         yield srv.port
     finally:
         await srv.stop()
-
-
-def module(name: str, port: int, **options: object) -> Module:
-    return Module(name, port=port, keepalive=None, **options)  # type: ignore[arg-type]
 
 
 async def next_trigger(mod: Module) -> WakeupEvent:

@@ -9,7 +9,7 @@ import asyncio
 import json
 from collections.abc import AsyncIterator, Callable, Coroutine
 from contextlib import asynccontextmanager, suppress
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +40,7 @@ async def serving(
     """
     opts = ServerOptions(port=0, grace_s=0.5, **options)
     if monitor is not None:
-        opts = ServerOptions(**{**_fields(opts), "monitor": False})
+        opts = replace(opts, monitor=False)
     server = await start_server(opts)
     try:
         if monitor is not None:
@@ -49,10 +49,6 @@ async def serving(
         yield server, server.monitor
     finally:
         await server.stop()
-
-
-def _fields(options: ServerOptions) -> dict[str, Any]:
-    return {name: getattr(options, name) for name in options.__dataclass_fields__}
 
 
 def _headers(lines: list[str]) -> dict[str, str]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 from server_thread import ReferenceServer
 
@@ -14,11 +14,6 @@ ONTOLOGY = EXAMPLES / "seed-paper.ontology.xml"
 PSYSPEC = EXAMPLES / "seed-paper.psySpec.xml"
 HISTORY = EXAMPLES / "seed-paper.history.xml"
 ARTIFACTS = ROOT / "test-artifacts" / "ontology"
-
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMEDRIVER = Path("/usr/bin/chromedriver")
-
-_T = TypeVar("_T")
 
 
 class ServerThread(ReferenceServer):

@@ -163,3 +163,13 @@ def test_plain_entries_match_exactly_like_the_spec_matcher(type_: str, pattern: 
     entry = TypeIndex(parse_ontology(_chain(type_))).get(type_)
     assert entry is not None
     assert entry_matches(pattern, entry) is matches(pattern, type_)
+
+
+def test_an_example_mixing_elements_and_text_is_read() -> None:
+    """The schema allows mixed content in `<example>`; its elements are the example's content."""
+    onto = parse_ontology(
+        _doc('<type segment="A"><example><a>1</a>loose text<b/></example></type>')
+    )
+    (node,) = onto.types
+    (example,) = node.examples
+    assert example.content == "<a>1</a>\n<b/>" and example.language == "xml"

@@ -90,10 +90,6 @@ class PushReader:
         """Every DATASAMPLE received so far, in arrival order."""
         return self._state.pushed
 
-    def pause(self) -> None:
-        """Hold the acknowledgements of later deliveries."""
-        self._state.paused = True
-
     async def resume(self) -> None:
         """Send the held acknowledgements, in order, and acknowledge at once again."""
         self._state.paused = False

@@ -158,6 +158,7 @@ async def resolve_aircentral(ctx: CaseContext) -> None:
     except WakeupUnreadable as exc:
         ctx.fail(f"RESOLVE_SUCCESS content: {exc}", expected="<tcplocation address port name/>")
     port = location.get("port", "")
+    # OA-SESS-8: the <tcplocation address port name/> of the component
     ctx.check(
         location.get("name") == "AIRCentral",
         f"tcplocation name is {location.get('name')!r}",

@@ -45,6 +45,11 @@ def _free_port() -> int:
         return int(sock.getsockname()[1])
 
 
+def _check_bind_refused(ctx: CaseContext, reply: Message, *, what: str, req: str) -> None:
+    """Fail unless `reply` is BIND_ERROR whose content names BIND_REFUSED."""
+    check_error(ctx, reply, types=("BIND_ERROR",), names=("BIND_REFUSED",), what=what, req=req)
+
+
 @case(
     id="SESS-009",
     title="BIND with <tcplocation port> is accepted with that port or refused BIND_ERROR",
@@ -84,33 +89,14 @@ async def bind_port(ctx: CaseContext) -> None:
             expected=f"BIND_ACCEPT naming {port}, or BIND_ERROR (OA-SESS-4)",
         )
         second = await (await ctx.raw()).request(bind("B", port))
-        check_error(
-            ctx,
-            second,
-            types=("BIND_ERROR",),
-            names=("BIND_REFUSED",),
-            what=f"a second module asking for port {port}",
-            req="OA-SESS-4",
+        _check_bind_refused(
+            ctx, second, what=f"a second module asking for port {port}", req="OA-SESS-4"
         )
     else:
-        check_error(
-            ctx,
-            first,
-            types=("BIND_ERROR",),
-            names=("BIND_REFUSED",),
-            what=f"BIND asking for port {port}",
-            req="OA-SESS-4",
-        )
+        _check_bind_refused(ctx, first, what=f"BIND asking for port {port}", req="OA-SESS-4")
     for bad in (0, 70000):
         reply = await (await ctx.raw()).request(bind(f"P{bad}", bad))
-        check_error(
-            ctx,
-            reply,
-            types=("BIND_ERROR",),
-            names=("BIND_REFUSED",),
-            what=f"BIND asking for port {bad}",
-            req="OA-SESS-4",
-        )
+        _check_bind_refused(ctx, reply, what=f"BIND asking for port {bad}", req="OA-SESS-4")
 
 
 @case(
@@ -244,14 +230,7 @@ async def bind_bad_names(ctx: CaseContext) -> None:
     for index, name in enumerate(names):
         kind = "BIND" if index % 2 == 0 else "BIND_NOLISTEN"
         reply = await raw.request(Message(type=kind, sender=name, to="CNS"))
-        check_error(
-            ctx,
-            reply,
-            types=("BIND_ERROR",),
-            names=("BIND_REFUSED",),
-            what=f"{kind} for the name {name[:40]!r}",
-            req="OA-SESS-30",
-        )
+        _check_bind_refused(ctx, reply, what=f"{kind} for the name {name[:40]!r}", req="OA-SESS-30")
 
 
 @case(

@@ -432,7 +432,7 @@ async def get_time(ctx: CaseContext) -> None:
     for _ in range(2):
         reply = await raw.request(_msg(ctx, "GET_TIME"))
         ctx.check(reply.type == "TIME", f"GET_TIME: {reply.type}", expected="TIME (OA-EXT-2)")
-        roots = content_root(reply)
+        roots = content_root(reply)  # OA-EXT-2: one <time sec msec/>, from the server's clock
         ctx.check(len(roots) == 1, f"TIME holds {len(roots)} elements", expected="one time element")
         attrs = attributes(roots[0])
         ctx.check("usec" not in attrs, f"TIME has usec: {attrs}", expected="no usec (OA-GEN-2)")

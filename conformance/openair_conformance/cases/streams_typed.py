@@ -300,6 +300,7 @@ async def _out_of_order(ctx: CaseContext, client: StreamClient, base: int) -> No
     )
     reply = await client.request("GET_SAMPLE_BY_TIME", time_xml(base + 25), xml=True)
     got = client.sample_of(reply, "GET_SAMPLE_BY_TIME T+25")
+    # OA-STREAM-6: the greatest timestamp at or before the time, not the newest sample
     ctx.check(got.id == 3, f"GET_SAMPLE_BY_TIME T+25 answered {got.id}", expected="3")
     content = (
         f"<objectcollection><object>{time_xml(base - 5)}</object>"

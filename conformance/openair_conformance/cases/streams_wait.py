@@ -194,6 +194,7 @@ async def wait_blocks_connection(ctx: CaseContext) -> None:
         expected="OA-STREAM-7",
     )
     reply = await _answered(ctx, waiter, sent[1], "the second reply")
+    # OA-STREAM-7: the later request is answered, after the wait
     ctx.check(reply.type == "NAME", f"GET_NAME was answered {reply.type}", expected="NAME")
     newest = await waiter.newest_id()
     wait = waiter.message(f"WAIT_FOR_FIRST_AFTERID {_long_ms(ctx)}", str(newest))
@@ -207,6 +208,7 @@ async def wait_blocks_connection(ctx: CaseContext) -> None:
         expected=f"a sample after {newest} (OA-STREAM-7)",
     )
     reply = await _answered(ctx, waiter, sent[1], "the reply to GET_COUNT")
+    # OA-STREAM-7: the later request is answered, after the wait
     ctx.check(reply.type == "COUNT", f"GET_COUNT was answered {reply.type}", expected="COUNT")
 
 

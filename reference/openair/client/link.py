@@ -94,10 +94,24 @@ class Link:
                 with contextlib.suppress(ValueError):
                     self._slot_waiters.remove(waiter)
 
-    async def _write(self, data: bytes) -> None:
-        """Write a frame and wait for the transport's flow control."""
+    def _check_open(self) -> None:
+        if self.closed:
+            raise ConnectionClosedError("the connection to the server is closed")
+
+    async def _reserve(self, timeout: float | None, what: str = "") -> None:
+        """Wait until the connection may send one more request, for at most `timeout` s."""
+        self._check_open()
+        try:
+            async with asyncio.timeout(timeout):
+                await self._slot()
+        except TimeoutError:
+            raise RequestTimeoutError(f"{what}no request slot within {timeout} s") from None
+
+    async def _write(self, *parts: Buffer) -> None:
+        """Write a frame (or its parts) and wait for the transport's flow control."""
         self.last_traffic = time.monotonic()
-        self._writer.write(data)
+        for part in parts:
+            self._writer.write(part)
         try:
             await self._writer.drain()
         except OSError as exc:
@@ -107,13 +121,7 @@ class Link:
         self, msg: Message, timeout: float | None
     ) -> tuple[Message, asyncio.Future[Message]]:
         """Send request `msg` once the window allows; return it as sent and its reply future."""
-        if self.closed:
-            raise ConnectionClosedError("the connection to the server is closed")
-        try:
-            async with asyncio.timeout(timeout):
-                await self._slot()
-        except TimeoutError:
-            raise RequestTimeoutError(f"{msg.type}: no request slot within {timeout} s") from None
+        await self._reserve(timeout, f"{msg.type}: ")
         data = self.conn.send_request(msg)
         sent = self.conn.last_sent or msg
         future: asyncio.Future[Message] = asyncio.get_running_loop().create_future()
@@ -131,32 +139,19 @@ class Link:
         chunk is not joined into a new buffer first. None when the frame expects no reply
         (a `noreply` message, OA-MSG-15).
         """
-        if self.closed:
-            raise ConnectionClosedError("the connection to the server is closed")
-        try:
-            async with asyncio.timeout(timeout):
-                await self._slot()
-        except TimeoutError:
-            raise RequestTimeoutError(f"no request slot within {timeout} s") from None
+        await self._reserve(timeout)
         before = self.conn.in_flight
         parts = encode(self.conn)
         future: asyncio.Future[Message] | None = None
         if self.conn.in_flight > before:
             future = asyncio.get_running_loop().create_future()
             self._waiting.append(future)
-        self.last_traffic = time.monotonic()
-        for part in _coalesce(parts):
-            self._writer.write(part)
-        try:
-            await self._writer.drain()
-        except OSError as exc:
-            raise ConnectionClosedError(f"write failed: {exc}") from exc
+        await self._write(*_coalesce(parts))
         return future
 
     async def send_noreply(self, msg: Message) -> Message:
         """Send a `noreply` message: no acknowledgement follows (OA-MSG-15)."""
-        if self.closed:
-            raise ConnectionClosedError("the connection to the server is closed")
+        self._check_open()
         data = self.conn.send_request(msg)
         await self._write(data)
         return self.conn.last_sent or msg

@@ -333,11 +333,15 @@ class Module:
         self.legacy = self.capabilities is None
         offered = frozenset(self.capabilities.extensions) if self.capabilities else frozenset()
         self.extensions = self._wanted & offered  # OA-GEN-2
-        limits = dict(self.capabilities.limits) if self.capabilities else {}
-        window = limits.get("max-in-flight", DEFAULT_MAX_IN_FLIGHT)
-        link.conn.extensions = self.extensions
-        link.set_window(max(1, window) if "pipelining" in self.extensions else 1)
+        self.configure_link(link)
         self._listener.extensions = self.extensions
+
+    def configure_link(self, link: Link) -> None:
+        """Give a requester connection the negotiated extensions and window (OA-SESS-17)."""
+        link.conn.extensions = self.extensions
+        caps = self.capabilities
+        window = caps.limit("max-in-flight", DEFAULT_MAX_IN_FLIGHT) if caps else 1
+        link.set_window(max(1, window) if "pipelining" in self.extensions else 1)
 
     def _declare(self, msg: Message) -> Message:
         """Add the `extensions` slot, only towards a server that is not legacy (OA-SESS-19)."""

@@ -26,7 +26,7 @@ import logging
 import time
 from types import TracebackType
 
-from openair.client.module import Module
+from openair.client.module import ALARM_PATTERN, CNS, Module
 from openair.client.session import ClientConnection, Closed, Event, Invalid, Request, Role
 from openair.client.stream_wire import (
     ReceivedSample,
@@ -37,7 +37,7 @@ from openair.client.stream_wire import (
     received_sample,
     stream_list_of,
 )
-from openair.client.streams import StreamHandle, error_from, raise_for
+from openair.client.streams import DATASAMPLE, StreamHandle, error_from, raise_for
 from openair.content import Trigger
 from openair.errors import (
     ApiMisuseError,
@@ -50,10 +50,7 @@ from openair.message import Message
 
 log = logging.getLogger("openair.client")
 
-CNS = "CNS"
-DATASAMPLE = "DATASAMPLE"
 NOTIFICATION = "RECEIVE_NAME_NOTIFICATION"
-ALARM_PATTERN = "AIR.Stream.Alarm.*"
 _READ_SIZE = 65536
 _CONFIRM_FIRST_DELAY = 0.001  # seconds, doubled up to _CONFIRM_MAX_DELAY while confirming
 _CONFIRM_MAX_DELAY = 0.05

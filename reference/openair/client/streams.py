@@ -27,7 +27,6 @@ from typing import NoReturn
 
 from openair.client.link import Link
 from openair.client.module import FailedReplyError, Module
-from openair.client.session import DEFAULT_MAX_IN_FLIGHT
 from openair.client.stream_wire import (
     StreamInfo,
     TimeArg,
@@ -49,9 +48,7 @@ from openair.client.stream_wire import (
 )
 from openair.datasample import DataSample, chunk_parts
 from openair.errors import (
-    ERRORS,
     ApiMisuseError,
-    Blame,
     CommandUnknownError,
     ConnectionClosedError,
     OpenAIRError,
@@ -75,11 +72,10 @@ def error_from(sent: Message, reply: Message) -> OpenAIRError:
     is the error's `__cause__` (a FailedReplyError holding request and reply).
     """
     failed = FailedReplyError(sent, reply)
-    name, _, detail = reply.content.partition(":")
-    cls = ERRORS.get(name.strip())
+    cls = failed.condition  # OA-ERR-8: never a local condition
     error: OpenAIRError = failed
-    if cls is not None and cls.blame is not Blame.LOCAL:  # OA-ERR-8: never a local condition
-        error = cls(detail.strip())
+    if cls is not None:
+        error = cls(reply.content.partition(":")[2].strip())
     elif reply.type == CommandUnknownError.reply:  # OA-SESS-20: `Offending cmd: TYPE`
         error = CommandUnknownError(reply.content)
     if error is not failed:
@@ -158,10 +154,7 @@ class StreamHandle:
         link = await Link.open(
             module.host, module.port, now=module.clock, name=module.name, on_lost=_ignore_loss
         )
-        link.conn.extensions = module.extensions
-        caps = module.capabilities
-        window = caps.limit("max-in-flight", DEFAULT_MAX_IN_FLIGHT) if caps else 1
-        link.set_window(max(1, window) if "pipelining" in module.extensions else 1)
+        module.configure_link(link)
         return link
 
     async def _main(self) -> Link:
@@ -303,16 +296,14 @@ class StreamHandle:
         `binary` sends a `BinaryM` frame (as `add_binary`), else an ADD_SAMPLE.
         """
         sample = make_sample(payload, params, timestamp_ms=timestamp_ms, seq=seq)
-        chunk = chunk_parts(sample)
-        link = await self._main()
         if binary:
+            chunk = chunk_parts(sample)
+            link = await self._main()
             sent = Message(type="BinaryM", sender=self.module.name, to=self.target)
             future = await link.submit_parts(lambda conn: conn.send_binary(chunk), self._timeout)
         else:
             sent = add_sample_request(self.target, self.module.name)
-            future = await link.submit_parts(
-                lambda conn: conn.send_request_parts(sent, [chunk]), self._timeout
-            )
+            link, future = await self._write(sent, [sample])
         assert future is not None  # both are always answered
         return asyncio.ensure_future(self._sample_id(link, sent, future))
 

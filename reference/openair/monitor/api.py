@@ -10,6 +10,7 @@ from a page of this server. The endpoints are documented in docs/monitor-api.md.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib.resources
 import json
@@ -21,10 +22,9 @@ from typing import TYPE_CHECKING
 
 from openair.codec import decode_message, encode_message
 from openair.errors import OpenAIRError
-from openair.framing import FrameTag
 from openair.message import MAX_PRIORITY, MIN_PRIORITY, Message
 from openair.monitor import views
-from openair.monitor.http import EventStream, Response
+from openair.monitor.http import EventStream, Response, error_response
 from openair.monitor.httpwire import HttpError, Request
 from openair.monitor.messages import MessageFilter
 from openair.monitor.sse import TOPICS
@@ -91,8 +91,8 @@ def _file(name: str) -> Response:
 
 
 def _not_allowed(allowed: tuple[str, ...]) -> Response:
-    body = json.dumps({"error": "method not allowed", "status": 405}).encode()
-    return Response(status=405, body=body, headers=(("Allow", ", ".join(allowed)),))
+    response = error_response(HttpError(405, "method not allowed"), close=False)
+    return dataclasses.replace(response, headers=(("Allow", ", ".join(allowed)),))
 
 
 def _segments(path: str) -> list[str]:
@@ -321,9 +321,7 @@ def _post(mon: Monitor, request: Request, peer: str, args: list[str]) -> Respons
     now_ns = time.time_ns()
     msg = _post_message(mon, fields, now_ns)
     server = mon.server
-    outcome = server.router.handle(0, msg, tag=FrameTag.MESSAGE, received_ns=now_ns, now_ns=now_ns)
-    for delivery in outcome.deliveries:
-        server.dispatcher.push(delivery)  # as Server._apply does for a connection's post
+    outcome = server.inject(msg, received_ns=now_ns)
     reply = outcome.replies[0] if outcome.replies else None
     accepted = reply is not None and reply.type == "RECEIVE_ACCEPT"
     board = server.router.whiteboard(msg.to)

@@ -1,7 +1,7 @@
 """The monitor attached to one server: its tap, its HTTP connections and listener, its timers.
 
-`Monitor.start()` installs the tap as the router's observer (and as the dispatcher's delivery
-hook when the dispatcher offers one), starts a once-a-second sampler for rates, and opens the
+`Monitor.start()` installs the tap as the router's observer and as the dispatcher's delivery
+hook (post -> wakeup latency), starts a once-a-second sampler for rates, and opens the
 `--http-port` listener when asked. HTTP on the main port arrives through `adopt()` (the server
 hands over a connection whose first bytes are an HTTP request line, OA-EXT-3).
 """

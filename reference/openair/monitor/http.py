@@ -25,7 +25,7 @@ from typing import Protocol
 import openair
 from openair.monitor.httpwire import HttpError, HttpLimits, Request, RequestParser, encode_head
 
-__all__ = ["EventStream", "HttpApp", "HttpConnection", "Response"]
+__all__ = ["EventStream", "HttpApp", "HttpConnection", "Response", "error_response"]
 
 log = logging.getLogger("openair.monitor")
 

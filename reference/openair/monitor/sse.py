@@ -19,7 +19,7 @@ from __future__ import annotations
 import asyncio
 import json
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from openair.message import Message
@@ -50,7 +50,7 @@ class Stream:
     skipped: int = 0  # events not looked at (too many since the last tick, or ring wrapped)
     dropped: int = 0  # message events dropped because the peer was not reading
     unreported: int = 0  # skipped + dropped not yet told to the peer
-    extra: dict[str, int] = field(default_factory=dict)
+    batch: int = 0  # message events in this tick's `messages` event (0: none)
 
 
 def _dumps(obj: object) -> str:
@@ -169,13 +169,13 @@ class Broadcaster:
                 msg, deliveries = tap.ring[seq - tap.oldest]
                 text = formatted[seq] = _dumps(summary(msg, deliveries, seq))
             items.append(text)
-        stream.extra["last_batch"] = len(items)
+        stream.batch = len(items)
         return [_event("messages", "[" + ",".join(items) + "]")]
 
     def _send(self, stream: Stream, parts: list[str], now: float) -> None:
         """Write a stream's events, a gap notice first; drop them if the peer is not reading."""
         conn = stream.conn
-        batch = stream.extra.pop("last_batch", 0)
+        batch, stream.batch = stream.batch, 0
         if conn.buffered > self.options.max_buffer:
             stream.dropped += batch
             stream.unreported += batch

@@ -97,9 +97,9 @@ class Tap:
     def delivered(self, module: str, item: QueueItem) -> None:
         """Record the latency of a delivery acknowledged now (post, or trigger `after`, → ack)."""
         try:
-            us = max(0, (time.time_ns() - item.due_ns) // 1000) if item.due_ns else None
-            if us is None:
+            if not item.due_ns:
                 return
+            us = max(0, (time.time_ns() - item.due_ns) // 1000)
             hist = self.latency.get(module)
             if hist is None:
                 if len(self.latency) >= _MAX_HISTOGRAMS:

@@ -33,6 +33,7 @@ _NS_PER_MS = 1_000_000
 _GRAPH_TYPES = 40  # the busiest types drawn; the rest are summed into one node
 _RECENT_WAKEUPS = 50
 _SCAN_LIMIT = 5000  # stored messages a history query reads at most (content globs parse XML)
+_NODE_KINDS = {"src": "sender", "type": "type", "wb": "whiteboard", "dst": "receiver"}
 
 
 Table = dict[str, dict[str, object]]  # name -> counters, as Server.counters() nests them
@@ -345,8 +346,7 @@ def graph(mon: Monitor, now_ns: int) -> dict[str, object]:
         for node in (a, b):
             if node not in nodes:
                 kind, label = node.split(":", 1)
-                kinds = {"src": "sender", "type": "type", "wb": "whiteboard", "dst": "receiver"}
-                nodes[node] = {"id": node, "kind": kinds[kind], "label": label}
+                nodes[node] = {"id": node, "kind": _NODE_KINDS[kind], "label": label}
     return {
         "window_s": round(span, 3),
         "events": len(events),

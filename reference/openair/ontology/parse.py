@@ -13,6 +13,7 @@ equal value (examples' XML content is re-indented on reading, so it survives the
 from __future__ import annotations
 
 import textwrap
+from copy import deepcopy
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -210,7 +211,8 @@ def _observed(el: etree._Element | None) -> Observed | None:
 
 def _indented(el: etree._Element) -> str:
     """Serialize a copy of `el` re-indented by two spaces (whitespace-only text dropped)."""
-    copy = etree.fromstring(etree.tostring(el))  # our own serialization: no DTD, safe to parse
+    copy = deepcopy(el)  # no second parse; text beside the element (its tail) is not shown
+    copy.tail = None
     for node in copy.iter():
         if node.text is not None and not node.text.strip():
             node.text = None

@@ -172,6 +172,17 @@ class Server:
         self._apply(outcome, conn.conn_id)
         return outcome
 
+    def inject(self, msg: Message, *, received_ns: int) -> Outcome:
+        """Route a message that came from no connection (the monitor's post form) as a post.
+
+        Its deliveries are queued as for any request; its replies are the caller's to read.
+        """
+        outcome = self.router.handle(
+            0, msg, tag=FrameTag.MESSAGE, received_ns=received_ns, now_ns=received_ns
+        )
+        self._apply(outcome, 0)
+        return outcome
+
     def http_takeover(self, conn: ServerConnection, data: bytes) -> bool:
         """Hand a connection that began with an HTTP method to the monitor (as Psyclone did).
 
@@ -257,9 +268,7 @@ class Server:
             if pusher is not None:
                 dropped = pusher.offer(push.sample)
                 if dropped:
-                    self.dropped_total["SAMPLE_DROPPED"] = (
-                        self.dropped_total.get("SAMPLE_DROPPED", 0) + dropped
-                    )
+                    self._count_dropped("SAMPLE_DROPPED", dropped)
         if not self._final:
             for module in push.modules:
                 self.dispatcher.push_sample(
@@ -309,8 +318,11 @@ class Server:
             self.router.note_delivered(module)
 
     def dropped(self, module: str, count: int, reason: str) -> None:
-        self.dropped_total[reason] = self.dropped_total.get(reason, 0) + count
+        self._count_dropped(reason, count)
         self.router.note_dropped(module, count)
+
+    def _count_dropped(self, reason: str, count: int) -> None:
+        self.dropped_total[reason] = self.dropped_total.get(reason, 0) + count
 
     # -- life cycle -----------------------------------------------------------------------------
 

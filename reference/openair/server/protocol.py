@@ -55,7 +55,8 @@ log = logging.getLogger("openair.server")
 #: Requests a module may send on a connection where the server is the requester; answered, not
 #: paired (a tolerance: OA-SESS-28 forbids them, but answering costs nothing, OA-SESS-10/KEEP-2).
 _ANSWERS = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
-#: First bytes that make a main-port connection an HTTP one (the monitor, as psyProbe was).
+#: First bytes that make a main-port connection an HTTP one (the monitor, as psyProbe was;
+#: OA-EXT-3 requires GET/HEAD/POST and allows the others).
 #: Chunks of at least this many bytes are written as parts of their own, never joined (11.2).
 _SEPARATE_CHUNKS = 64 * 1024
 _HTTP_METHODS = (b"GET ", b"HEAD ", b"POST ", b"PUT ", b"OPTIONS ", b"DELETE ")
@@ -235,6 +236,7 @@ class ServerConnection(asyncio.Protocol):
         """Hand a fresh responder connection that starts with an HTTP method to the monitor."""
         if self.role is not Role.RESPONDER or self._reader.buffered:
             return False
+        # OA-EXT-3: only when a monitor is attached (and `monitor` advertised).
         if not data[:8].startswith(_HTTP_METHODS) or not self.host.http_takeover(self, data):
             return False
         self._closing = True  # the monitor owns the transport now
@@ -382,7 +384,7 @@ class ServerConnection(asyncio.Protocol):
             parts = self._encode(msg, tag)
         else:
             parts = (wire,) if isinstance(wire, bytes) else wire
-        size = sum(len(part) for part in parts)
+        size = len(parts[0]) if len(parts) == 1 else sum(map(len, parts))  # the hot path: one
         if self.role is Role.RESPONDER:
             for part in parts:  # at once: OA-LIM-5 counts what the peer has not read
                 self.transport.write(part)

@@ -62,7 +62,6 @@ from openair.wakeup import (
     collection_xml,
     phase_spec_xml,
 )
-from openair.xmlsafe import parse_fragment
 
 __all__ = [
     "ConnId",
@@ -315,8 +314,7 @@ class Router:
         self, conn: ConnId, msg: Message, tag: FrameTag, received_ns: int, now_ns: int
     ) -> Outcome:
         if self._shutting_down:  # OA-SESS-24
-            err = ShuttingDownError("the server is shutting down")
-            return Outcome(replies=(self._error(msg, err, "CNS", now_ns),), close_this=True)
+            return self._refuse_shutting_down(msg, now_ns)
         if tag is FrameTag.RECEIVE:
             return self._receive_frame(conn, msg, now_ns)
         if msg.sender in self._modules:
@@ -338,6 +336,11 @@ class Router:
         if is_media_command(msg.type):  # OA-STREAM-3: not FORWARD_FAILED
             return self._no_stream(msg, now_ns)
         return Outcome(replies=(cmd.forward_failed(msg, now_ns=now_ns),))  # OA-SESS-21
+
+    def _refuse_shutting_down(self, msg: Message, now_ns: int) -> Outcome:
+        """Answer SHUTTING_DOWN and close the connection (OA-SESS-24)."""
+        err = ShuttingDownError("the server is shutting down")
+        return Outcome(replies=(self._error(msg, err, "CNS", now_ns),), close_this=True)
 
     def _component_tables(self) -> dict[str, dict[str, Handler]]:
         """Return each system component's commands (spec 6.2)."""
@@ -546,14 +549,12 @@ class Router:
         self, conn: ConnId, chunk: bytes, *, received_ns: int, now_ns: int
     ) -> Outcome:
         """Answer a BinaryM frame: a sample for the connection's current stream (OA-STREAM-11)."""
+        request = Message(type="BinaryOnly", id="")  # what Psyclone calls a bare BinaryM
         if self._shutting_down:  # OA-SESS-24
-            err = ShuttingDownError("the server is shutting down")
-            req = Message(type="BinaryOnly", id="")
-            return Outcome(replies=(self._error(req, err, "CNS", now_ns),), close_this=True)
+            return self._refuse_shutting_down(request, now_ns)
         result = self.streams.binary(conn, chunk, received_ns=received_ns, now_ns=now_ns)
         if result is None:
-            req = Message(type="BinaryOnly", id="")
-            return Outcome(replies=(cmd.unknown_command(req, sender="CNS", now_ns=now_ns),))
+            return Outcome(replies=(cmd.unknown_command(request, sender="CNS", now_ns=now_ns),))
         return self._stream_outcome(result, now_ns)
 
     def wait_expired(self, ticket: int, now_ns: int) -> Outcome:
@@ -769,12 +770,10 @@ class Router:
     def _create_stream(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
         """Create a stream at run time (OA-XSTREAM-10)."""
         try:
-            content = msg.content
-            name = _stream_name(content)
             self.streams.create(
-                content,
+                msg.content,
                 whiteboards=self._whiteboards,
-                taken=self._reserved(name) or name in self._modules,
+                taken=lambda name: self._reserved(name) or name in self._modules,
             )
         except OpenAIRError as err:
             return Outcome(replies=(self._error(msg, err, "Psyclone", now_ns),))
@@ -814,15 +813,6 @@ def _folded_board(whiteboard: str) -> str:
     """Fold a trigger's `from` for comparison; any / * / empty mean every board (OA-TRIG-2)."""
     folded = ascii_fold(whiteboard.strip())
     return ANY_WHITEBOARD if folded in ("", "any", "*") else folded
-
-
-def _stream_name(content: str) -> str:
-    """Return the `name` of a run-time `<stream>` ("" when there is none to read)."""
-    try:
-        roots = parse_fragment(content)
-    except OpenAIRError:
-        return ""
-    return (roots[0].get("name") or "").strip() if len(roots) == 1 else ""
 
 
 def _stream_specs(config: ServerConfig, *, typed: bool) -> list[StreamSpec]:

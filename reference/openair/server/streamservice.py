@@ -10,7 +10,7 @@ alarms the router posts on a whiteboard (`alarms`). The ring buffers themselves 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from lxml import etree
@@ -38,7 +38,9 @@ from openair.objects import (
     inner_text,
     parse_content,
     parse_integer,
+    parse_time,
     serialize,
+    time_bound,
 )
 from openair.server import commands as cmd
 from openair.server.config import StreamConfig
@@ -198,10 +200,12 @@ class StreamService:
             return self._by_type.get(ascii_fold(to))  # OA-XSTREAM-1: a name takes precedence
         return None
 
-    def create(self, content: str, *, whiteboards: Iterable[str], taken: bool) -> str:
+    def create(
+        self, content: str, *, whiteboards: Iterable[str], taken: Callable[[str], bool]
+    ) -> str:
         """Create a stream at run time (OA-XSTREAM-10); return its name.
 
-        `taken` says whether the requested name is already used by another component.
+        `taken(name)` says whether a name is already used by another component.
         Raises ContentInvalidError.
         """
         roots = parse_content(content, ContentInvalidError)
@@ -212,12 +216,12 @@ class StreamService:
         board = (attr(el, "whiteboard") or "").strip()
         if not name:
             raise ContentInvalidError("<stream> needs a name")
-        if taken or name in self._states:
+        if taken(name) or name in self._states:
             raise ContentInvalidError(f"the name {name!r} is already in use")
-        if board not in set(whiteboards := list(whiteboards)):
+        boards = list(whiteboards)
+        if board not in boards:
             raise ContentInvalidError(f"<stream whiteboard={board!r}> names no whiteboard")
         cfg = _stream_config(el, name)
-        boards = list(whiteboards)
         spec = StreamSpec.from_config(cfg, board, typed_streams=self.typed, whiteboards=boards)
         if spec.type is not None and ascii_fold(spec.type) in self._by_type:
             raise ContentInvalidError(f"the stream type {spec.type!r} is already in use")
@@ -633,25 +637,19 @@ def _range(content: str) -> tuple[int, int]:
     return low, high
 
 
-def _ms(t: AirTime) -> int:
-    return t.sec * 1000 + t.msec
-
-
 def _time_of(el: etree._Element) -> int:
     try:
-        return _ms(time_from_element(el))
+        return time_from_element(el).ms
     except MessageInvalidError as exc:
         raise ContentInvalidError(f"time: {exc.detail}") from None
 
 
 def _time_ms(content: str) -> int:
     """Read content that is one time element (or, leniently, milliseconds since the epoch)."""
-    roots = parse_content(content, ContentInvalidError)
-    if not roots:
-        return _integer(content, "time element")
-    if len(roots) != 1:
-        raise ContentInvalidError("the content must be one time element")
-    return _time_of(roots[0])
+    text = content.strip()
+    if text and not text.startswith("<"):
+        return _integer(text, "time element")
+    return parse_time(content).ms  # CONTENT_INVALID when it is not one time element
 
 
 def _time_pair(content: str) -> tuple[int, int]:
@@ -666,15 +664,6 @@ def _time_pair(content: str) -> tuple[int, int]:
     if len(times) != 2:
         raise ContentInvalidError("GET_SAMPLES_BY_TIME needs two times (from, until)")
     return times[0], times[1]
-
-
-def _bound(el: etree._Element) -> int:
-    inner = elements(el)
-    if not inner:
-        return _integer(inner_text(el), f"{el.tag} in ms since the epoch")
-    if len(inner) > 1:
-        raise ContentInvalidError(f"<{el.tag}> must hold one time element or a number")
-    return _time_of(inner[0])
 
 
 def _search(content: str) -> tuple[int | None, int | None, list[tuple[str, str]], int]:
@@ -692,9 +681,9 @@ def _search(content: str) -> tuple[int | None, int | None, list[tuple[str, str]]
             raise ContentInvalidError(f"<samplesearch> holds <{kind}> twice")
         seen.add(kind)
         if kind == "aftertime":
-            after = _bound(child)
+            after = time_bound(child, "afterTime", ContentInvalidError).ms  # as OA-RET-9
         elif kind == "untiltime":
-            until = _bound(child)
+            until = time_bound(child, "untilTime", ContentInvalidError).ms
         elif kind == "param":
             key = attr(child, "name")
             if not key:

@@ -150,6 +150,7 @@ class SseReader:
     head: Reply
     comments: int = 0
     buffer: list[tuple[str, str]] = field(default_factory=list)
+    body: bytearray = field(default_factory=bytearray)  # de-chunked, not yet parsed
 
     @classmethod
     async def open(cls, port: int, query: str) -> SseReader:
@@ -162,10 +163,25 @@ class SseReader:
         }
         return cls(client, Reply(int(lines[0].split()[1]), headers, b""))
 
+    async def block(self) -> bytes:
+        """Return the body up to the next empty line, reading chunks (RFC 9112 7.1) as needed."""
+        while (end := self.body.find(b"\n\n")) < 0:
+            if self.head.headers.get("transfer-encoding") != "chunked":
+                self.body += await asyncio.wait_for(self.client.reader.read(65536), BOUND)
+                continue
+            size_line = await asyncio.wait_for(self.client.reader.readuntil(b"\r\n"), BOUND)
+            size = int(size_line.split(b";")[0], 16)
+            chunk = await asyncio.wait_for(self.client.reader.readexactly(size + 2), BOUND)
+            assert chunk.endswith(b"\r\n") and size > 0, "the stream ended"
+            self.body += chunk[:-2]
+        block = bytes(self.body[: end + 2])
+        del self.body[: end + 2]
+        return block
+
     async def next(self) -> tuple[str, str]:
         """Return the next (event name, data); comments are counted and skipped."""
         while True:
-            block = await asyncio.wait_for(self.client.reader.readuntil(b"\n\n"), BOUND)
+            block = await self.block()
             name, data = "message", []
             for line in block.decode().split("\n"):
                 if line.startswith(":"):

@@ -218,3 +218,61 @@ def test_the_graph_and_module_pages(browser: Any, live: LiveServer) -> None:
     wait(browser, "#latency .note", "wakeups; mean")
     shot(browser, "08-module")
     no_page_errors(browser)
+
+
+def test_an_unknown_whiteboard_is_said_not_replaced(browser: Any, live: LiveServer) -> None:
+    browser.get(live.url + "/whiteboard?wb=NoSuch")
+    error = wait(browser, "#filter-error", "NoSuch")
+    assert "no whiteboard" in error.text.lower()
+    wait(browser, "body[data-loaded=missing]")
+    assert "WB1" not in wait(browser, "#board-title").text
+    assert rows(browser, "#messages tbody tr") == []  # not WB1's messages
+    shot(browser, "09-unknown-whiteboard")
+    no_page_errors(browser)
+
+
+def test_an_invalid_pattern_is_shown_and_the_view_stays_usable(
+    browser: Any, live: LiveServer
+) -> None:
+    browser.get(live.url + "/whiteboard?wb=WB1&pattern=Test..Bad")
+    wait(browser, "#filter-error", "pattern")
+    badge = wait(browser, "#live.off")
+    assert badge.text != "connecting"
+    assert rows(browser, "#messages tbody tr") == []
+    shot(browser, "10-invalid-pattern")
+    field = wait(browser, "#f-pattern")
+    field.clear()
+    field.send_keys("Test.Other.*")
+    wait(browser, "#f-apply").click()
+    wait(browser, "#live.on")
+    wait(browser, '#messages tbody tr[data-type="Test.Other.One"]')
+    assert not wait(browser, "#status").text.startswith("invalid")
+    assert not browser.find_element("css selector", "#filter-error").is_displayed()
+    browser.get_log("browser")  # the refused fetch was logged as a 400: expected here
+
+
+def test_long_content_stays_within_the_detail_panel(browser: Any, live: LiveServer) -> None:
+    long_word = "Unbroken" * 400
+    live.post("Writer", "WB1", "Test.Long." + "Segment" * 30, long_word + " " + "x " * 2000)
+    browser.get(live.url + "/whiteboard?wb=WB1&pattern=Test.Long.*")
+    wait(browser, '#messages tbody tr[data-type^="Test.Long."]').click()
+    wait(browser, '#slots tr[data-slot="content"]', "Unbroken")
+    shot(browser, "11-long-content")
+    outside = browser.execute_script(
+        """
+        const panel = document.getElementById("detail").getBoundingClientRect();
+        return Array.from(document.querySelectorAll("#detail *"))
+          .filter((e) => e.getBoundingClientRect().right > panel.right + 1)
+          .map((e) => e.tagName + (e.id ? "#" + e.id : ""));
+        """
+    )
+    assert outside == []
+    page = browser.execute_script(
+        "return [document.documentElement.scrollWidth, document.documentElement.clientWidth];"
+    )
+    assert page[0] <= page[1]  # the page itself does not scroll sideways
+    content = wait(browser, '#slots tr[data-slot="content"] pre')
+    assert browser.execute_script("return arguments[0].scrollHeight;", content) > int(
+        content.size["height"]
+    )  # long content scrolls within its box
+    no_page_errors(browser)

@@ -98,7 +98,7 @@ def test_an_idle_stream_gets_heartbeat_comments() -> None:
         async with serving(monitor=MonitorOptions(heartbeat_s=0.05, tick_s=0.02)) as (server, _):
             sse = await SseReader.open(server.port, "topics=messages")
             await sse.until("hello")
-            line = await asyncio.wait_for(sse.client.reader.readuntil(b"\n\n"), BOUND)
+            line = await sse.block()  # the next event or comment, de-chunked
             assert line == b": keepalive\n\n"
             await sse.close()
 

@@ -146,7 +146,7 @@ def run_all_reporters(target: tuple[str, int], folder: Path) -> Artifacts:
         ConsoleReporter(stream, False),
         JUnitReporter(out / "junit.xml"),
         JsonReporter(out / "report.json"),
-        HtmlReporter(out / "report.html"),
+        HtmlReporter(out / "report.html", traces="failing"),  # as `openair conform` does
         recorder,
     ]
     options = RunOptions(target=target, jobs=3, expectations=expectations)

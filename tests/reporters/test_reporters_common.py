@@ -89,14 +89,20 @@ def test_an_unwritable_path_is_reported_not_raised(
     for event in artifacts.events:
         reporter.handle(event)
     reporter.close()
-    assert not reporter.written
+    assert not reporter.written and reporter.failed
     assert "could not write the JUnit report" in capsys.readouterr().err
 
 
-def test_write_atomic_replaces_and_leaves_no_temporary_file(tmp_path: Path) -> None:
+def test_write_atomic_replaces_and_leaves_no_temporary_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     target = tmp_path / "deep" / "out.txt"
-    write_atomic(target, b"one")
+    write_atomic(target, b"one", "test file")
+    assert (
+        capsys.readouterr().err == f"note: created the folder {target.parent} for the test file\n"
+    )
     write_atomic(target, b"two")
+    assert capsys.readouterr().err == ""  # the folder exists now: nothing to say
     assert target.read_bytes() == b"two"
     assert sorted(p.name for p in target.parent.iterdir()) == ["out.txt"]
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -12,9 +13,17 @@ from click.testing import CliRunner
 from reporters_support import FAILING_ID, HOSTILE_TEXT, SYNTHETIC, Artifacts
 
 from openair_conformance.cli import conform
-from openair_conformance.model import RunStarted, Verdict
-from openair_conformance.reporters._common import by_section, format_time
-from openair_conformance.reporters.html import write_comparison
+from openair_conformance.model import (
+    CaseFinished,
+    RunFinished,
+    RunStarted,
+    RunSummary,
+    TargetDeath,
+    TraceEntry,
+    Verdict,
+)
+from openair_conformance.reporters._common import DETAILED, RunRecord, by_section, format_time
+from openair_conformance.reporters.html import HtmlReporter, render_report, write_comparison
 from openair_conformance.reporters.jsonreport import ReportError
 
 
@@ -31,11 +40,11 @@ def test_the_page_is_self_contained(artifacts: Artifacts) -> None:
     assert len(page.xpath("//style")) == 1
 
 
-def test_the_header_names_target_server_date_and_options(artifacts: Artifacts) -> None:
-    header = _page(artifacts.html).xpath("//header")[0]
+def test_the_run_section_names_target_server_date_and_options(artifacts: Artifacts) -> None:
+    section = _page(artifacts.html).xpath("//section[@id='run']")[0]
     rows = {
         tr.xpath("th")[0].text_content(): tr.xpath("td")[0].text_content()
-        for tr in header.xpath(".//tr")
+        for tr in section.xpath(".//tr")
     }
     started = artifacts.events[0]
     assert isinstance(started, RunStarted)
@@ -174,3 +183,97 @@ def test_conform_report_writes_the_comparison(artifacts: Artifacts, tmp_path: Pa
     assert result.exit_code == 0, result.output
     rows = _page(output).xpath("//table[@id='compare-table']/tbody/tr")
     assert len(rows) == len(SYNTHETIC)
+
+
+def _all_pass_record(artifacts: Artifacts, cases: int, entries: int) -> RunRecord:
+    """A finished run of `cases` passing results, each with a trace of `entries` 500-byte frames."""
+    model = next(r for r in artifacts.summary.results if r.info.id == FAILING_ID)
+    trace = tuple(
+        TraceEntry(t=i / 100, conn="primary", direction="in", tag="Message", text="x" * 500)
+        for i in range(entries)
+    )
+    results = tuple(
+        dataclasses.replace(
+            model,
+            info=dataclasses.replace(model.info, id=f"ALL-{n:03d}"),
+            verdict=Verdict.PASS,
+            message="",
+            trace=trace,
+            divergence=None,
+        )
+        for n in range(cases)
+    )
+    started = artifacts.events[0]
+    assert isinstance(started, RunStarted)
+    record = RunRecord()
+    record.handle(dataclasses.replace(started, cases=cases))
+    for result in results:
+        record.handle(CaseFinished(result=result))
+    summary = RunSummary(counts=((Verdict.PASS, cases),), duration=1.0, results=results)
+    record.handle(RunFinished(summary=summary))
+    return record
+
+
+def test_an_all_pass_report_stays_small(artifacts: Artifacts) -> None:
+    record = _all_pass_record(artifacts, cases=200, entries=40)  # 20 kB of trace per case
+    small = render_report(record, traces="failing").encode()
+    assert len(small) < 2048 * 200, len(small)  # under 2 kB per case, page frame included
+    full = render_report(record, traces="all").encode()
+    assert len(full) > 200 * 40 * 500  # the traces are what was left out
+    page = lxml.html.fromstring(small)
+    assert len(page.xpath("//article[contains(@class, 'case')]")) == 200
+    assert page.xpath("//ol[@class='trace']") == []
+    assert (
+        "trace of 40 entries not included"
+        in page.xpath("//article[@id='case-ALL-007']")[0].text_content()
+    )
+
+
+def test_the_page_opens_on_the_matrix(artifacts: Artifacts) -> None:
+    page = _page(artifacts.html)
+    sections = [s.get("id") for s in page.xpath("//body/section")]
+    assert sections[0] == "matrix" and sections.index("matrix") < sections.index("details")
+    children = [el for el in page.xpath("//body")[0] if el.tag != "script"]
+    assert [el.tag for el in children[:2]] == ["header", "section"]  # only the title line
+    assert children[1].get("id") == "matrix"
+    assert page.xpath("//header//table") == []
+
+
+def test_only_results_that_are_not_passes_carry_their_trace(artifacts: Artifacts) -> None:
+    page = _page(artifacts.html)
+    traced = {a.get("id") for a in page.xpath("//article[.//ol[@class='trace']]")}
+    expected = {f"case-{r.info.id}" for r in artifacts.summary.results if r.verdict in DETAILED}
+    assert traced == expected and "case-SYN-001" not in traced
+    record = RunRecord()
+    for event in artifacts.events:
+        record.handle(event)
+    every = lxml.html.fromstring(render_report(record, traces="all"))
+    assert every.xpath("//p[@class='omitted']") == []
+    assert len(page.xpath("//p[@class='omitted']")) == len(SYNTHETIC) - len(expected)
+    assert len(every.xpath("//article[.//ol[@class='trace']]")) > len(traced)
+    with pytest.raises(ValueError, match="traces"):
+        HtmlReporter(Path("x.html"), traces="some")
+
+
+def test_a_target_death_and_a_rerun_are_shown(artifacts: Artifacts) -> None:
+    record = RunRecord()
+    for event in artifacts.events:
+        if isinstance(event, CaseFinished) and event.result.info.id == "SYN-003":
+            died = dataclasses.replace(event.result, target_died=True, rerun_after_restart=True)
+            event = CaseFinished(result=died)
+        elif isinstance(event, RunFinished):
+            death = TargetDeath(case="SYN-003", detail="no PING answer", action="restarted")
+            summary = dataclasses.replace(
+                record.effective_summary(), target_deaths=(death,), not_run=("SYN-099",)
+            )
+            event = RunFinished(summary=summary)
+        record.handle(event)
+    page = lxml.html.fromstring(render_report(record))
+    banners = [p.text_content() for p in page.xpath("//header/p[@class='banner']")]
+    assert banners == [
+        "The target died during case SYN-003: no PING answer; restarted.",
+        "Not run after that: SYN-099.",
+    ]
+    article = page.xpath("//article[@id='case-SYN-003']")[0]
+    assert "rerun after a restart" in article.text_content()
+    assert "The target died during this case." in article.text_content()

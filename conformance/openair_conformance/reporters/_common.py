@@ -154,13 +154,16 @@ def format_time(epoch: float) -> str:
     return moment.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-def write_atomic(path: Path, data: bytes) -> None:
+def write_atomic(path: Path, data: bytes, what: str = "report") -> None:
     """Write `data` to `path` through a temporary file, so a reader never sees half a report.
 
-    Missing parent folders are created. The file gets the usual permissions (the umask's).
+    Missing parent folders are created, and that is said on stderr (a mistyped folder should
+    not go unnoticed). The file gets the usual permissions (the umask's).
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    if not path.parent.is_dir():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        print(f"note: created the folder {path.parent} for the {what}", file=sys.stderr)
     temp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
     try:
         with temp.open("xb") as out:
@@ -231,7 +234,8 @@ class FileReporter:
     """A reporter that records the events and writes one file when closed.
 
     Subclasses give `what` (for error messages) and `render()`; the file is written once,
-    atomically, and only if a run started; a write error is reported on stderr, not raised.
+    atomically, and only if a run started; a write error is reported on stderr, not raised,
+    and leaves `failed` true (the CLI exits 4 then).
     """
 
     what = "report"
@@ -240,6 +244,7 @@ class FileReporter:
         self.path = Path(path)
         self.record = RunRecord()
         self.written = False
+        self.failed = False
         self._closed = False
 
     def handle(self, event: Event) -> None:
@@ -258,8 +263,9 @@ class FileReporter:
         if self.record.started is None:
             return
         try:
-            write_atomic(self.path, self.render())
+            write_atomic(self.path, self.render(), self.what)
         except OSError as exc:
             write_failed(self.what, self.path, exc)
+            self.failed = True
             return
         self.written = True

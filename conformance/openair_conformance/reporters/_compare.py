@@ -14,6 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from markupsafe import Markup
+
 from openair_conformance.model import CaseResult, Verdict
 from openair_conformance.reporters._common import (
     first_line,
@@ -21,7 +23,7 @@ from openair_conformance.reporters._common import (
     section_key,
     write_atomic,
 )
-from openair_conformance.reporters._htmlkit import esc, page, verdict_badge
+from openair_conformance.reporters._templating import render
 from openair_conformance.reporters.jsonreport import ReportError, decode_result, load_report
 
 __all__ = ["Column", "comparison_page", "read_column", "write_comparison"]
@@ -64,92 +66,76 @@ def _labels(columns: Sequence[Column]) -> list[str]:
     return labels
 
 
-def _reports_table(columns: Sequence[Column], labels: list[str]) -> str:
-    def row(name: str, cells: list[str]) -> str:
-        return f"<tr><th>{esc(name)}</th>{''.join(f'<td>{c}</td>' for c in cells)}</tr>"
-
-    def data(*keys: str) -> list[str]:
-        values = []
+def _report_rows(columns: Sequence[Column]) -> list[tuple[str, list[object]]]:
+    def data(*keys: str) -> list[object]:
+        values: list[object] = []
         for column in columns:
             value: Any = column.data
             for key in keys:
                 value = value[key]
-            values.append(esc(value))
+            values.append(value)
         return values
 
-    head = "".join(f"<th>{esc(label)}</th>" for label in labels)
-    rows = [
-        row("report", [f"<code>{esc(c.path.name)}</code>" for c in columns]),
-        row("target", data("target")),
-        row("server", data("server", "server")),
-        row("protocol", data("server", "protocol")),
-        row("legacy", ["yes" if c.data["server"]["legacy"] else "no" for c in columns]),
-        row("started", [esc(format_time(c.data["started"])) for c in columns]),
-        row("complete", ["yes" if c.data["complete"] else "<strong>no</strong>" for c in columns]),
-        row("cases", [str(len(c.results)) for c in columns]),
+    no = Markup("<strong>no</strong>")
+    return [
+        ("report", [Markup("<code>{}</code>").format(c.path.name) for c in columns]),
+        ("target", data("target")),
+        ("server", data("server", "server")),
+        ("protocol", data("server", "protocol")),
+        ("legacy", ["yes" if c.data["server"]["legacy"] else "no" for c in columns]),
+        ("started", [format_time(c.data["started"]) for c in columns]),
+        ("complete", ["yes" if c.data["complete"] else no for c in columns]),
+        ("cases", [len(c.results) for c in columns]),
     ]
+
+
+def _verdict_rows(columns: Sequence[Column]) -> list[tuple[Verdict, list[int]]]:
+    rows = []
     for verdict in Verdict:
         counts = [c.data["summary"]["counts"][verdict.value] for c in columns]
         if any(counts):
-            row_cells = [verdict_badge(verdict, str(n)) if n else "0" for n in counts]
-            rows.append(row(verdict.value, row_cells))
-    return (
-        '<section id="reports"><h2>Reports</h2><table class="kv">'
-        f"<thead><tr><th></th>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table></section>"
-    )
+            rows.append((verdict, counts))
+    return rows
 
 
-def _cell(result: CaseResult | None, reference: str | None) -> str:
-    if result is None:
-        delta = " delta" if reference is not None else ""
-        return f'<td class="missing{delta}" title="not in this report">—</td>'
-    value = result.verdict.value
-    delta = " delta" if reference is not None and value != reference else ""
-    tip = esc(first_line(result.message, 300) or value)
-    return f'<td class="v-{value}{delta}" title="{tip}">{verdict_badge(result.verdict)}</td>'
-
-
-def _case_rows(columns: Sequence[Column]) -> tuple[str, int]:
+def _case_rows(columns: Sequence[Column]) -> list[dict[str, Any]]:
     infos = {}
     for column in reversed(columns):  # the first report's title wins
         infos.update({cid: result.info for cid, result in column.results.items()})
     order = sorted(infos, key=lambda cid: (section_key(infos[cid].section), cid))
-    rows, differing = [], 0
+    rows = []
     for cid in order:
         info = infos[cid]
         found = [column.results.get(cid) for column in columns]
         values = {r.verdict.value if r is not None else "" for r in found}
         differs = len(values) > 1
-        differing += differs
         first = found[0].verdict.value if found[0] is not None else ""
-        cells = "".join(_cell(r, first if differs else None) for r in found)
+        cells = [
+            {
+                "result": r,
+                "delta": differs and (r is None or r.verdict.value != first),
+                "tip": "" if r is None else first_line(r.message, 300) or r.verdict.value,
+            }
+            for r in found
+        ]
         search = " ".join([cid, info.title, *info.requirements]).lower()
-        rows.append(
-            f'<tr class="{"differs" if differs else "same"}" data-section="{esc(info.section)}" '
-            f'data-search="{esc(search)}"><td class="mono">{esc(cid)}</td>'
-            f"<td>{esc(info.section)}</td><td>{esc(info.title)}</td>{cells}</tr>"
-        )
-    return "".join(rows), differing
+        rows.append({"info": info, "differs": differs, "cells": cells, "search": search})
+    return rows
 
 
 def comparison_page(columns: Sequence[Column]) -> str:
     """Render the comparison of the given reports."""
-    labels = _labels(columns)
-    rows, differing = _case_rows(columns)
-    head = "".join(f"<th>{esc(label)}</th>" for label in labels)
-    body = (
-        "<header><h1>OpenAIR conformance: comparison of "
-        f"{len(columns)} report(s)</h1></header>"
-        f"{_reports_table(columns, labels)}"
-        f'<section id="cases"><h2>Cases</h2><p>{differing} case(s) with differing verdicts.</p>'
-        '<div class="filters"><input type="search" id="f-text" aria-label="filter" '
-        'placeholder="filter by ID, title, requirement">'
-        '<label><input type="checkbox" id="f-diff"> only cases whose verdicts differ</label>'
-        '<span id="f-count" class="muted"></span></div>'
-        '<table class="filterable" id="compare-table"><thead><tr><th>ID</th><th>section</th>'
-        f"<th>title</th>{head}</tr></thead><tbody>{rows}</tbody></table></section>"
+    rows = _case_rows(columns)
+    return render(
+        "compare.html",
+        title="OpenAIR conformance comparison",
+        columns=columns,
+        labels=_labels(columns),
+        report_rows=_report_rows(columns),
+        verdict_rows=_verdict_rows(columns),
+        rows=rows,
+        differing=sum(row["differs"] for row in rows),
     )
-    return page("OpenAIR conformance comparison", body)
 
 
 def write_comparison(reports: Sequence[Path | str], output: Path | str) -> None:
@@ -160,4 +146,4 @@ def write_comparison(reports: Sequence[Path | str], output: Path | str) -> None:
     if not reports:
         raise ReportError("no report to compare")
     columns = [read_column(Path(path)) for path in reports]
-    write_atomic(Path(output), comparison_page(columns).encode("utf-8"))
+    write_atomic(Path(output), comparison_page(columns).encode("utf-8"), "comparison page")

@@ -242,7 +242,23 @@ class ConsoleReporter:
             lines += ["", self.style.bold(f"Problems ({len(problems)})")]
             for result in sorted(problems, key=lambda r: DETAILED.index(r.verdict)):
                 lines += ["", *self._details(result)]
-        return [*lines, "", self.style.bold(self._totals(summary))]
+        return [*lines, *self._deaths(summary), "", self.style.bold(self._totals(summary))]
+
+    def _deaths(self, summary: RunSummary) -> list[str]:
+        """Say when the target died, during which case, and what the run did then."""
+        lines: list[str] = []
+        for death in summary.target_deaths:
+            others = f" (also running: {', '.join(death.in_flight)})" if death.in_flight else ""
+            lines.append(
+                self.style.bold(f"The target died during {death.case}{others}: {death.action}")
+                + f" — {safe_text(death.detail)}"
+            )
+        reruns = sorted(r.info.id for r in summary.results if r.rerun_after_restart)
+        if reruns:
+            lines.append(f"rerun after restart: {', '.join(reruns)}")
+        if summary.not_run:
+            lines.append(f"not run ({len(summary.not_run)}): {', '.join(summary.not_run)}")
+        return ["", *lines] if lines else []
 
     def _counts(self, counts: Iterable[tuple[Verdict, int]]) -> str:
         ordered = sorted(counts, key=lambda vc: list(Verdict).index(vc[0]))

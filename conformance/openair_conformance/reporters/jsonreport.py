@@ -16,6 +16,8 @@ from functools import cache
 from pathlib import Path
 from typing import Any, NoReturn
 
+import jsonschema  # type: ignore[import-untyped]  # no stubs in the test extra
+
 from openair_conformance import __version__
 from openair_conformance.model import (
     CaseInfo,
@@ -24,6 +26,7 @@ from openair_conformance.model import (
     RunStarted,
     RunSummary,
     ServerInfo,
+    TargetDeath,
     TraceEntry,
     Verdict,
 )
@@ -35,7 +38,6 @@ from openair_conformance.reporters._common import (
     format_time,
     section_titles,
 )
-from openair_conformance.reporters._jsonschema import SchemaValidationError, validate
 
 __all__ = [
     "REPORT_FORMAT",
@@ -48,6 +50,7 @@ __all__ = [
     "load_report",
     "report_data",
     "report_schema",
+    "schema_errors",
 ]
 
 REPORT_FORMAT = "openair-conformance-report/1"
@@ -103,6 +106,11 @@ def _summary(summary: RunSummary, unfinished: list[str]) -> dict[str, Any]:
             for section, counts in by_section(summary.results).items()
         ],
         "unfinished": unfinished,
+        "target_deaths": [
+            {"case": d.case, "detail": d.detail, "action": d.action, "in_flight": list(d.in_flight)}
+            for d in summary.target_deaths
+        ],
+        "not_run": list(summary.not_run),
     }
 
 
@@ -129,6 +137,8 @@ def encode_result(result: CaseResult) -> dict[str, Any]:
         "repro": result.repro,
         "measurements": _measures(result.measurements),
         "expectation_reason": result.expectation_reason,
+        "target_died": result.target_died,
+        "rerun_after_restart": result.rerun_after_restart,
         "trace": [
             {"t": e.t, "conn": e.conn, "direction": e.direction, "tag": e.tag, "text": e.text}
             for e in result.trace
@@ -199,11 +209,25 @@ def load_report(path: Path | str) -> dict[str, Any]:
     if not isinstance(data, dict) or data.get("format") != REPORT_FORMAT:
         found = data.get("format") if isinstance(data, dict) else None
         raise ReportError(f"{path}: not an {REPORT_FORMAT} report (format {found!r})")
-    try:
-        validate(data, report_schema())
-    except SchemaValidationError as exc:
-        raise ReportError(f"{path}: does not follow the report schema: {exc}") from exc
+    problems = schema_errors(data)
+    if problems:
+        shown = "; ".join(problems[:5]) + (f"; … {len(problems) - 5} more" if problems[5:] else "")
+        raise ReportError(f"{path}: does not follow the report schema: {shown}")
     return data
+
+
+@cache
+def _validator() -> Any:
+    schema = report_schema()
+    cls = jsonschema.validators.validator_for(schema)
+    cls.check_schema(schema)
+    return cls(schema)
+
+
+def schema_errors(data: Any) -> list[str]:
+    """Return every violation of the report schema by `data` as "/json/pointer: what"."""
+    found = sorted(_validator().iter_errors(data), key=lambda e: list(map(str, e.absolute_path)))
+    return [f"/{'/'.join(map(str, e.absolute_path))}: {e.message}" for e in found]
 
 
 def _float(value: float | None) -> float:
@@ -237,6 +261,8 @@ def decode_result(item: dict[str, Any]) -> CaseResult:
         repro=item["repro"],
         measurements=_pairs(item["measurements"]),
         expectation_reason=item["expectation_reason"],
+        target_died=item.get("target_died", False),
+        rerun_after_restart=item.get("rerun_after_restart", False),
     )
 
 
@@ -270,4 +296,14 @@ def decode_summary(data: dict[str, Any]) -> RunSummary:
         vacuous=tuple(summary["vacuous"]),
         unknown_expectations=tuple(summary["unknown_expectations"]),
         results=tuple(decode_result(item) for item in data["results"]),
+        target_deaths=tuple(
+            TargetDeath(
+                case=d["case"],
+                detail=d["detail"],
+                action=d["action"],
+                in_flight=tuple(d["in_flight"]),
+            )
+            for d in summary.get("target_deaths", [])
+        ),
+        not_run=tuple(summary.get("not_run", [])),
     )

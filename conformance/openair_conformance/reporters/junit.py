@@ -84,6 +84,10 @@ def _system_out(result: CaseResult) -> str:
         lines.append("an expected failure, counted as passed: " + result.expectation_reason)
     elif result.verdict in (Verdict.PASS_NONSTRICT, Verdict.INFORMATIONAL):
         lines.append(f"a {result.info.level.value} requirement is not met; counted as passed")
+    if result.target_died:
+        lines.append("the target died during this case (it stopped answering the liveness probe)")
+    if result.rerun_after_restart:
+        lines.append("rerun after restart: the first attempt was interrupted by the target's death")
     if result.message:
         lines += ["", result.message]
     lines += ["", "requirements:"]

@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from openair.monitor.core import Monitor, MonitorOptions
-from openair.monitor.httpwire import HttpLimits
+from openair.monitor.http import HttpLimits
 
 if TYPE_CHECKING:
     from openair.server.app import Server

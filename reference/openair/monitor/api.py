@@ -24,8 +24,7 @@ from openair.codec import decode_message, encode_message
 from openair.errors import OpenAIRError
 from openair.message import MAX_PRIORITY, MIN_PRIORITY, Message
 from openair.monitor import views
-from openair.monitor.http import EventStream, Response, error_response
-from openair.monitor.httpwire import HttpError, Request
+from openair.monitor.http import EventStream, HttpError, Request, Response, error_response
 from openair.monitor.messages import MessageFilter
 from openair.monitor.sse import TOPICS
 from openair.times import AirTime

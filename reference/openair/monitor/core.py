@@ -16,8 +16,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from openair.monitor import api, views
-from openair.monitor.http import EventStream, HttpConnection, Response
-from openair.monitor.httpwire import HttpLimits, Request
+from openair.monitor.http import EventStream, HttpConnection, HttpLimits, Request, Response
 from openair.monitor.sse import Broadcaster
 from openair.monitor.tap import RateMeter, Tap
 

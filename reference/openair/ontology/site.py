@@ -25,19 +25,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from openair.ontology.diagram import DiagramResult, render_svg
-from openair.ontology.htmlparts import (
-    EMPTY_TREE,
-    first_sentence,
-    layout,
-    tree_html,
-    tree_label,
-)
 from openair.ontology.lint import lint
 from openair.ontology.model import Ontology, TypeIndex
-from openair.ontology.overview import index_body, module_names, module_page_body
-from openair.ontology.pages import DocContext, type_page_body
+from openair.ontology.overview import index_page, module_names, module_page
+from openair.ontology.pages import DocContext, type_page
 from openair.ontology.paths import Paths
 from openair.ontology.relations import Relations
+from openair.ontology.templating import first_sentence, tree_label
 from openair.ontology.usage import Usage
 
 __all__ = [
@@ -135,31 +129,11 @@ def write_site(ctx: DocContext, out: Path) -> SiteReport:
     _write(out / "assets" / "search-index.js", search_index_js(ctx))
     if ctx.diagram is not None and ctx.diagram.svg is not None:
         _write(out / "diagram.svg", '<?xml version="1.0" encoding="UTF-8"?>\n' + ctx.diagram.svg)
-    trees = {"": tree_html(ctx.index, ctx.paths, ""), "../": EMPTY_TREE}
-    site = ctx.title
-    _write(
-        out / ctx.paths.index,
-        layout(
-            title="Overview", site_title=site, root="", body_html=index_body(ctx), tree=trees[""]
-        ),
-    )
-    pages = 1
+    _write(out / ctx.paths.index, index_page(ctx))
     for entry in ctx.index.entries:
-        body = type_page_body(ctx, entry, "../")
-        page = layout(
-            title=entry.display_name,
-            site_title=site,
-            root="../",
-            body_html=body,
-            tree=trees["../"],
-            current=entry.name,
-        )
-        _write(out / ctx.paths.type(entry.name), page)
-        pages += 1
+        _write(out / ctx.paths.type(entry.name), type_page(ctx, entry, "../"))
     for name in module_names(ctx):
-        body = module_page_body(ctx, name, "../")
-        page = layout(title=name, site_title=site, root="../", body_html=body, tree=trees["../"])
-        _write(out / ctx.paths.module(name), page)
-        pages += 1
+        _write(out / ctx.paths.module(name), module_page(ctx, name, "../"))
+    pages = 1 + len(ctx.index.entries) + len(module_names(ctx))
     problem = ctx.diagram.problem if ctx.diagram is not None else ""
     return SiteReport(directory=out, pages=pages, diagram_problem=problem)

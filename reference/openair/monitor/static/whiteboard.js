@@ -61,12 +61,12 @@
       Object.entries(f).filter(([, v]) => v))}`);
     field("board-title").textContent = `Messages on ${f.wb}`;
     if (source) { source.close(); source = null; }
+    if (!f.wb) { refused("choose a whiteboard"); return; }
     let data;
     try {
       data = await OA.getJSON(`/api/whiteboards/${encodeURIComponent(f.wb)}/messages?${query(f)}`);
     } catch (e) {
-      error.textContent = e.message;
-      error.hidden = false;
+      refused(e.status === 400 ? `invalid filter: ${e.message}` : e.message);
       return;
     }
     error.hidden = true;
@@ -76,6 +76,33 @@
       (data.truncated ? " (search stopped early)" : "") + " that pass the filter");
     document.body.dataset.loaded = "yes";
     if (field("f-live").checked) live(f, data.seq);
+  }
+
+  // The filter was refused (or the list could not be read): say so, show no stale rows, and
+  // leave the form usable; the next Apply starts again.
+  function refused(message) {
+    const error = field("filter-error");
+    error.textContent = message;
+    error.hidden = false;
+    clear(document.querySelector("#messages tbody"));
+    setStatus("nothing shown: correct the filter and apply it again");
+    OA.setLive(false, "not live");
+    document.body.dataset.loaded = "error";
+  }
+
+  // The page was asked for a whiteboard the server does not have: say so, never show another.
+  function missing(name, boards) {
+    const select = field("wb");
+    select.prepend(el("option", { value: "", text: `(no whiteboard ${name})`, disabled: true }));
+    select.value = "";
+    field("board-title").textContent = `No whiteboard ${name}`;
+    const error = field("filter-error");
+    error.textContent = `There is no whiteboard ${JSON.stringify(name)} on this server; ` +
+      `it has ${boards.map((b) => b.name).join(", ")}. Choose one above.`;
+    error.hidden = false;
+    setStatus("");
+    OA.setLive(false, "not live");
+    document.body.dataset.loaded = "missing";
   }
 
   function live(f, since) {
@@ -142,7 +169,8 @@
     const select = field("wb");
     for (const b of overview.whiteboards) select.append(el("option", { value: b.name, text: b.name }));
     const wanted = OA.param("wb");
-    select.value = overview.whiteboards.some((b) => b.name === wanted) ? wanted
+    const known = overview.whiteboards.some((b) => b.name === wanted);
+    select.value = known ? wanted
       : (overview.whiteboards.find((b) => b.name !== "AIRCentral") || overview.whiteboards[0]).name;
     field("f-pattern").value = OA.param("pattern");
     field("f-from").value = OA.param("from");
@@ -157,7 +185,8 @@
       for (const id of ["f-pattern", "f-from", "f-content"]) field(id).value = "";
       load();
     });
-    await load();
+    if (wanted && !known) missing(wanted, overview.whiteboards);  // OA-WB-10: names are exact
+    else await load();
   }
 
   init().catch((e) => OA.setLive(false, e.message));

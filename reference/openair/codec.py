@@ -31,7 +31,7 @@ from openair._errors_base import OpenAIRError
 from openair.errors import ApiMisuseError, MessageInvalidError, XmlMalformedError
 from openair.fastcodec import fast_decode, fast_encode
 from openair.framing import Frame, FrameTag
-from openair.message import Message, Reference, Slot
+from openair.message import MAX_PRIORITY, MIN_PRIORITY, Message, Reference, Slot
 from openair.times import AirTime
 from openair.xmlsafe import XmlLimits, parse_fragment, parse_xml
 
@@ -78,49 +78,68 @@ _LISTED_EXTRAS = frozenset({"extensions"})
 
 
 def decode_message(
-    xml: bytes, chunks: tuple[bytes, ...] = (), limits: XmlLimits | None = None
+    xml: bytes,
+    chunks: tuple[bytes, ...] = (),
+    limits: XmlLimits | None = None,
+    *,
+    clamp_priority: bool = False,
 ) -> Message:
     """Parse the XML of a Message or Receive frame into a `Message` carrying `chunks`.
 
     Raises XmlMalformedError (also when the root is not `message`, OA-MSG-1), XmlForbiddenError,
     XmlTooDeepError and MessageInvalidError. Simple documents take the strict fast path of
     `fastcodec`, which gives the same `Message`; anything else is parsed with lxml.
+    `clamp_priority` reads a priority outside 0.0-6.999 as the nearest end of the range instead
+    of refusing it: what a client does with the deliveries and replies it receives (OA-MSG-19);
+    a server validating a post leaves it False (OA-MSG-6).
     """
-    fast = fast_decode(xml, chunks, limits)
+    fast = fast_decode(xml, chunks, limits, clamp_priority=clamp_priority)
     if fast is not None:
         return fast
-    return decode_with_lxml(xml, chunks, limits)
+    return decode_with_lxml(xml, chunks, limits, clamp_priority=clamp_priority)
 
 
 def decode_with_lxml(
-    xml: bytes, chunks: tuple[bytes, ...] = (), limits: XmlLimits | None = None
+    xml: bytes,
+    chunks: tuple[bytes, ...] = (),
+    limits: XmlLimits | None = None,
+    *,
+    clamp_priority: bool = False,
 ) -> Message:
     """Decode like `decode_message` but always with lxml (the reference for the fast path)."""
     root = parse_xml(xml, limits)  # UTF-8 only (OA-MSG-1), hardened (OA-SEC-1/2)
     if _local(root.tag) != "message":  # OA-MSG-1
         raise XmlMalformedError(f"root element is <{root.tag}>, not <message>")
-    return _decode_element(root, chunks)
+    return _decode_element(root, chunks, clamp_priority)
 
 
-def from_frame(frame: Frame, limits: XmlLimits | None = None) -> Message:
+def from_frame(
+    frame: Frame, limits: XmlLimits | None = None, *, clamp_priority: bool = False
+) -> Message:
     """Decode a Message or Receive frame; a BinaryM frame carries no message (OA-FRAME-5)."""
     if frame.tag is FrameTag.BINARY:
         raise MessageInvalidError("a BinaryM frame carries no message")
-    return decode_message(frame.xml, frame.chunks, limits)
+    return decode_message(frame.xml, frame.chunks, limits, clamp_priority=clamp_priority)
 
 
 def message_from_element(el: etree._Element) -> Message:
-    """Read a `<message>` element (any case), e.g. a stored copy inside a content object."""
+    """Read a `<message>` element (any case), e.g. a stored copy inside a content object.
+
+    A stored copy is what a server wrote, so it is read liberally: a priority outside
+    0.0-6.999 (Psyclone echoes a posted 6.999 as `7.00`) is clamped to the range (OA-MSG-19).
+    """
     if not isinstance(el.tag, str) or _local(el.tag) != "message":
         raise MessageInvalidError(f"expected a <message> element, found <{el.tag}>")
-    return _decode_element(el, ())
+    return _decode_element(el, (), clamp_priority=True)
 
 
-def _decode_element(root: etree._Element, chunks: tuple[bytes, ...]) -> Message:
+def _decode_element(
+    root: etree._Element, chunks: tuple[bytes, ...], clamp_priority: bool = False
+) -> Message:
     """Collect the slots of `root` into Message fields; reject duplicates (OA-MSG-16)."""
     fields: dict[str, Any] = {"id": "", "binary": chunks}
     if root.attrib:
-        _read_root_attributes(root, fields)
+        _read_root_attributes(root, fields, clamp_priority)
     extras: list[Slot] = []
     seen: set[str] = set()
     _no_text(root.text, "message")
@@ -190,11 +209,11 @@ def _attributes(el: etree._Element) -> dict[str, str]:
     return out
 
 
-def _read_root_attributes(root: etree._Element, fields: dict[str, Any]) -> None:
+def _read_root_attributes(root: etree._Element, fields: dict[str, Any], clamp: bool) -> None:
     """Read priority, timetolive and noreply; other root attributes are not kept."""
     attrs = _attributes(root)
     if (priority := attrs.get("priority")) is not None:
-        fields["priority"] = _priority(priority)
+        fields["priority"] = _priority(priority, clamp)
     if (ttl := attrs.get("timetolive")) is not None:
         fields["timetolive"] = _decimal(ttl, "timetolive")
     if (noreply := attrs.get("noreply")) is not None:
@@ -212,11 +231,13 @@ def _decimal(text: str, what: str) -> float:
     return float(stripped) + 0.0  # + 0.0 turns -0.0 into 0.0
 
 
-def _priority(text: str) -> float:
+def _priority(text: str, clamp: bool) -> float:
     value = _decimal(text, "priority")
-    if not 0.0 <= value <= 6.999:  # OA-MSG-6
-        raise MessageInvalidError(f"priority {text!r} is outside 0.0-6.999")
-    return value
+    if MIN_PRIORITY <= value <= MAX_PRIORITY:
+        return value
+    if clamp:  # OA-MSG-19: a legacy peer's 7.00 is read as 6.999, never refused
+        return min(max(value, MIN_PRIORITY), MAX_PRIORITY)
+    raise MessageInvalidError(f"priority {text!r} is outside 0.0-6.999")  # OA-MSG-6
 
 
 def _text(el: etree._Element) -> str:

@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import fields as dataclass_fields
 from typing import Any
 
-from openair.message import Message, Reference, Slot
+from openair.message import MAX_PRIORITY, MIN_PRIORITY, Message, Reference, Slot
 from openair.times import AirTime
 from openair.xmlsafe import XmlLimits
 
@@ -172,9 +172,17 @@ class _Decline(Exception):
 
 
 def fast_decode(
-    xml: bytes, chunks: tuple[bytes, ...] = (), limits: XmlLimits | None = None
+    xml: bytes,
+    chunks: tuple[bytes, ...] = (),
+    limits: XmlLimits | None = None,
+    *,
+    clamp_priority: bool = False,
 ) -> Message | None:
-    """Decode a simple message document, or return None to leave it to the lxml path."""
+    """Decode a simple message document, or return None to leave it to the lxml path.
+
+    `clamp_priority` reads an out-of-range priority as the nearest end of 0.0-6.999, exactly as
+    `codec.decode_message` does (OA-MSG-19); without it such a document is declined.
+    """
     if limits is not None and (len(xml) > limits.max_bytes or limits.max_depth < 2):
         return None  # OA-LIM-1, OA-LIM-3: the lxml path reports the limit
     try:
@@ -186,15 +194,15 @@ def fast_decode(
     try:
         found = _CANONICAL.fullmatch(text)  # its text classes exclude what OA-MSG-14 forbids
         if found is not None:
-            return _canonical(found.groups(), "&" in text, chunks)
+            return _canonical(found.groups(), "&" in text, chunks, clamp_priority)
         if _BAD_CHAR.search(text) is not None:
             return None  # OA-MSG-14: the lxml path refuses it
-        return _decode(text, chunks)
+        return _decode(text, chunks, clamp_priority)
     except _Decline:
         return None
 
 
-def _canonical(g: tuple[Any, ...], amp: bool, chunks: tuple[bytes, ...]) -> Message:
+def _canonical(g: tuple[Any, ...], amp: bool, chunks: tuple[bytes, ...], clamp: bool) -> Message:
     """Build the Message of a document in the canonical layout (groups of `_CANONICAL`)."""
     if amp:  # expand the entities of every text group (attributes hold none: see the pattern)
         g = tuple(_unescape(v) if v and "&" in v else v for v in g)
@@ -209,7 +217,7 @@ def _canonical(g: tuple[Any, ...], amp: bool, chunks: tuple[bytes, ...]) -> Mess
     values[_STORED] = g[8] or ""
     values[_ISRESPONSE] = g[9] or ""
     if g[0] is not None:
-        values[_PRIORITY] = _priority(g[0])
+        values[_PRIORITY] = _priority(g[0], clamp)
     if g[1] is not None:
         values[_TIMETOLIVE] = _decimal(g[1])
     if g[2] is not None:
@@ -234,11 +242,13 @@ def _canonical(g: tuple[Any, ...], amp: bool, chunks: tuple[bytes, ...]) -> Mess
     return _new_message(values)
 
 
-def _priority(text: str) -> float:
+def _priority(text: str, clamp: bool) -> float:
     number = _decimal(text)
-    if not 0.0 <= number <= 6.999:  # OA-MSG-6
-        raise _Decline
-    return number
+    if MIN_PRIORITY <= number <= MAX_PRIORITY:
+        return number
+    if clamp:  # OA-MSG-19: read as the nearest end of the range, as the lxml path does
+        return min(max(number, MIN_PRIORITY), MAX_PRIORITY)
+    raise _Decline  # OA-MSG-6: the lxml path raises
 
 
 _TIMES: dict[tuple[str, str, str | None], AirTime] = {}  # times repeat within a burst
@@ -264,7 +274,7 @@ def _new_time(sec_text: str, msec_text: str, usec_text: str | None) -> AirTime:
     return AirTime(sec=sec, msec=msec, usec=usec)
 
 
-def _decode(text: str, chunks: tuple[bytes, ...]) -> Message | None:
+def _decode(text: str, chunks: tuple[bytes, ...], clamp: bool) -> Message | None:
     pos = 0
     if text.startswith("<?"):
         decl = _DECL.match(text)
@@ -276,7 +286,7 @@ def _decode(text: str, chunks: tuple[bytes, ...]) -> Message | None:
         return None
     fields: dict[str, Any] = {"id": "", "binary": chunks}
     if root.group(2):
-        _root_attributes(root.group(2), fields)
+        _root_attributes(root.group(2), fields, clamp)
     seen: set[str] = set()
     extras: list[Slot] = []
     pos = root.end()
@@ -374,10 +384,10 @@ def _attributes(attrs: str) -> dict[str, str]:
     return out
 
 
-def _root_attributes(attrs: str, fields: dict[str, Any]) -> None:
+def _root_attributes(attrs: str, fields: dict[str, Any], clamp: bool) -> None:
     for key, value in _attributes(attrs).items():
         if key == "priority":
-            fields["priority"] = _priority(value)
+            fields["priority"] = _priority(value, clamp)
         elif key == "timetolive":
             fields["timetolive"] = _decimal(value)
         elif key == "noreply":

@@ -10,7 +10,9 @@ nothing is patched outside the block). The mutants live in modules by spec area:
 - mutants_wire.py — sessions, replies, delivery order, frames and hostile input (2, 6, 10, 13-15);
 - mutants_input.py — reading frames and refusing invalid messages (sections 2, 3, 4, 13);
 - mutants_streams.py — streams: ring, ids, lookups, waits, BinaryM, push, limits, locks and
-  alarms (section 11).
+  alarms (section 11);
+- mutants_clarified.py — the rules spec 1.0-draft.5 made precise (content globs, the character
+  table, pattern limits, literal pattern characters, wbid range, RESOLVE ports, callback paths).
 
 test_mutants.py runs the conformance cases that could catch each mutant against a server
 started with it active, and reports which cases catch which mutant.
@@ -18,6 +20,7 @@ started with it active, and reports which cases catch which mutant.
 
 from __future__ import annotations
 
+import mutants_clarified
 import mutants_input
 import mutants_matching
 import mutants_routing
@@ -37,4 +40,5 @@ MODULES = (
     mutants_wire,
     mutants_input,
     mutants_streams,
+    mutants_clarified,
 )

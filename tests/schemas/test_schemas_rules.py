@@ -8,6 +8,7 @@ exactly what spec 5.1 / 5.2 (OA-TYPE-1, OA-MATCH-7) define, checked with both va
 
 from __future__ import annotations
 
+import json
 import re
 from functools import cache
 from pathlib import Path
@@ -91,19 +92,20 @@ def test_cited_requirements_exist(name: str) -> None:
 
 # --- TypeNameType and PatternType against the prose of spec 5.1 / 5.2 ----------------------------
 
-# Spec 5.1: a segment character is any character except '.', '*', the controls U+0000-U+001F and
-# U+007F-U+009F, and these white-space characters.
-PROSE_SPACES = frozenset(
-    "\u0020\u0085\u00a0\u1680\u2028\u2029\u202f\u205f\u3000"
-    + "".join(chr(c) for c in range(0x2000, 0x200B))
+# Spec 5.1 (OA-TYPE-5): a segment character is any character except '.', '*' and those of the
+# table of Unicode 14.0.0 categories, read here from the shared vector file the spec names.
+EXCLUDED_RANGES = tuple(
+    (int(r["first"][2:], 16), int(r["last"][2:], 16))
+    for r in json.loads(
+        (ROOT / "spec" / "vectors" / "unicode" / "segment-exclusions.json").read_text("utf-8")
+    )["ranges"]
 )
 
 
 def is_segment_char(c: str) -> bool:
     """Return whether spec 5.1 allows `c` inside a segment."""
     code = ord(c)
-    control = code <= 0x1F or 0x7F <= code <= 0x9F
-    return c not in ".*" and not control and c not in PROSE_SPACES
+    return c not in ".*" and not any(a <= code <= b for a, b in EXCLUDED_RANGES)
 
 
 def prose_type_ok(text: str) -> bool:

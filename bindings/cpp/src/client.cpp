@@ -311,6 +311,10 @@ void client::on_message(std::function<void(const message_event&)> callback) {
     self().on_message = std::move(callback);
 }
 
+void client::on_dropped_delivery(std::function<void(const std::string& reason)> callback) {
+    self().on_dropped = std::move(callback);
+}
+
 std::size_t client::poll(std::chrono::milliseconds timeout) {
     impl& s = self();
     if (s.in_callback) throw error(errc::api_misuse, "poll() called from inside a callback");
@@ -475,6 +479,9 @@ std::optional<std::uint16_t> client::listen_port() const noexcept {
 }
 unsigned client::generation() const noexcept {
     return impl_ ? impl_->generation : 0;
+}
+std::uint64_t client::undecodable_deliveries() const noexcept {
+    return impl_ ? impl_->undecodable : 0;
 }
 const std::string& client::name() const noexcept {
     static const std::string none;

@@ -56,6 +56,8 @@ struct client::impl {
     client_options opt;
     std::function<void(const wakeup_event&)> on_wakeup;
     std::function<void(const message_event&)> on_message;
+    std::function<void(const std::string&)> on_dropped;
+    std::uint64_t undecodable = 0;  // deliveries that could not be read (OA-MSG-20)
 
     std::unique_ptr<detail::connection> primary;
     std::unique_ptr<detail::connection> callback;
@@ -103,6 +105,8 @@ struct client::impl {
     void handle_data(detail::connection& c, std::string_view data);
     void handle_event(detail::connection& c, session_event& event, std::int64_t received_ns);
     void queue_delivery(detail::connection& c, request_event& req, std::int64_t received_ns);
+    /// Count and report a delivery that cannot be read: never lose one silently (OA-MSG-20).
+    void delivery_dropped(const std::string& reason);
     void answer_ready(detail::connection& c);
     void reap();
     detail::connection* find(int id);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdlib>
+#include <iostream>
 
 #include "client_impl.hpp"
 #include "openair/codec.hpp"
@@ -121,6 +122,7 @@ void client::impl::queue_delivery(detail::connection& c, request_event& req,
             inbox.push_back(
                 {c.id, seq, wakeup_event{std::move(w), std::move(req.msg), received_ns, path}});
         } catch (const error& e) {
+            delivery_dropped("'" + type + "' " + req.msg.id + ": " + e.wire_text());
             // OA-SESS-11: a wakeup that cannot be read is answered RECEIVE_ERROR.
             if (req.needs_answer)
                 c.answers.push_back({req.seq, true, "RECEIVE_ERROR", e.wire_text()});
@@ -147,6 +149,7 @@ void client::impl::handle_event(detail::connection& c, session_event& event,
         queue_delivery(c, *req, received_ns);
     } else if (auto* bad = std::get_if<invalid_event>(&event)) {
         if (OPENAIR_FAULT(crash_on_malformed)) std::_Exit(3);  // test-only fault
+        delivery_dropped(bad->failure.wire_text());
         // OA-ERR-3: answered RECEIVE_ERROR, and the connection stays usable (test-only fault
         // accept_malformed: RECEIVE_ACCEPT instead).
         c.answers.push_back({bad->seq, true,
@@ -155,7 +158,20 @@ void client::impl::handle_event(detail::connection& c, session_event& event,
     } else if (std::holds_alternative<closed_event>(event)) {
         drop(c, "closed by the server");
     } else if (auto* failed = std::get_if<failed_event>(&event)) {
+        // A delivery connection that breaks mid-frame loses that delivery (OA-MSG-20).
+        if (&c != primary.get()) {
+            delivery_dropped("delivery connection closed: " + failed->failure.wire_text());
+        }
         drop(c, failed->failure.what());  // OA-FRAME-9: the stream cannot be trusted any more
+    }
+}
+
+void client::impl::delivery_dropped(const std::string& reason) {
+    ++undecodable;
+    if (on_dropped) {
+        on_dropped(reason);
+    } else {
+        std::clog << "openair: " << opt.name << ": delivery dropped: " << reason << '\n';
     }
 }
 

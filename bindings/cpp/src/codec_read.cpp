@@ -124,13 +124,18 @@ std::string read_history(const xmlNode* el) {
     return out;
 }
 
-void read_root_attributes(const xmlNode* root, message& m) {
+void read_root_attributes(const xmlNode* root, message& m, bool clamp_priority) {
     auto attrs = attributes(root);
     if (auto it = attrs.find("priority"); it != attrs.end()) {
         auto value = parse_decimal(it->second);
         if (!value) invalid("priority is not a decimal number: '" + clip(it->second) + "'");
-        if (!(*value >= 0.0 && *value <= 6.999)) {  // OA-MSG-6
-            invalid("priority '" + clip(it->second) + "' is outside 0.0-6.999");
+        if (!(*value >= 0.0 && *value <= 6.999)) {
+            // OA-MSG-19: a client reads a legacy peer's 7.00 as 6.999; a server refuses a
+            // post out of range (OA-MSG-6).
+            if (!clamp_priority) {
+                invalid("priority '" + clip(it->second) + "' is outside 0.0-6.999");
+            }
+            *value = *value < 0.0 ? 0.0 : 6.999;
         }
         m.priority = *value;
     }
@@ -227,10 +232,11 @@ air_time read_time(const xmlNode* el) {
     return time_from_attributes(attributes(el), node_name(el));
 }
 
-message decode_element(const xmlNode* root, std::vector<std::string> chunks) {
+message decode_element(const xmlNode* root, std::vector<std::string> chunks,
+                       bool clamp_priority) {
     message m;
     m.binary = std::move(chunks);
-    read_root_attributes(root, m);
+    read_root_attributes(root, m, clamp_priority);
     std::set<std::string> seen;
     for (const child_item& item : child_items(root)) {
         if (item.node == nullptr) {
@@ -257,7 +263,7 @@ message decode_element(const xmlNode* root, std::vector<std::string> chunks) {
 }  // namespace detail
 
 message decode_message(std::string_view xml, std::vector<std::string> chunks,
-                       const xml_limits& limits) {
+                       const xml_limits& limits, bool clamp_priority) {
     detail::doc_ptr doc = detail::parse_document(xml, limits);  // OA-MSG-1, OA-SEC-1/2
     const xmlNode* root = xmlDocGetRootElement(doc.get());
     if (detail::local_name(root) != "message") {  // OA-MSG-1
@@ -265,14 +271,14 @@ message decode_message(std::string_view xml, std::vector<std::string> chunks,
             errc::xml_malformed,
             "root element is <" + std::string(detail::node_name(root)) + ">, not <message>");
     }
-    return detail::decode_element(root, std::move(chunks));
+    return detail::decode_element(root, std::move(chunks), clamp_priority);
 }
 
-message from_frame(const frame& f, const xml_limits& limits) {
+message from_frame(const frame& f, const xml_limits& limits, bool clamp_priority) {
     if (f.tag == frame_tag::binary) {
         throw error(errc::message_invalid, "a BinaryM frame carries no message");  // OA-FRAME-5
     }
-    return decode_message(f.xml, f.chunks, limits);
+    return decode_message(f.xml, f.chunks, limits, clamp_priority);
 }
 
 std::optional<message> find_message(std::string_view xml_content) {

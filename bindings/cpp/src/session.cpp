@@ -200,7 +200,7 @@ session_event session::event_for(const frame& f) {
     if (state_ == st::requester) {
         message msg;
         try {
-            msg = from_frame(f);
+            msg = from_frame(f, {}, true);  // OA-MSG-19: a client reads a legacy server liberally
         } catch (const error& e) {
             return fail(e);  // an unreadable reply cannot be paired: the connection is lost
         }
@@ -221,7 +221,7 @@ session_event session::event_for(const frame& f) {
     }
     std::uint64_t seq = next_seq_++;
     try {
-        message msg = from_frame(f);
+        message msg = from_frame(f, {}, true);  // OA-MSG-19
         bool noreply = msg.noreply && extensions_.count("noreply") != 0;  // OA-MSG-15
         if (!noreply) to_answer_.push_back({seq, msg, std::nullopt});
         return request_event{seq, std::move(msg), !noreply};

@@ -15,10 +15,11 @@ struct range {
     char32_t last;
 };
 
-// Characters that may not appear in a type or pattern (OA-TYPE-1, OA-MATCH-7): the controls and
-// the white space the spec lists, and (as the reference implementation and the wildcard
-// vectors do) every other character of the Unicode categories Cc, Cf, Co, Zl, Zp and Zs,
-// Unicode 14.0, e.g. U+200B ZERO WIDTH SPACE. Unassigned code points are not refused.
+// Characters that may not appear in a type or pattern (OA-TYPE-1, OA-TYPE-5, OA-MATCH-7): the
+// table of spec 5.1, the Unicode 14.0.0 categories Cc, Cf, Co, Zl, Zp and Zs (Cs cannot be
+// decoded from UTF-8), e.g. U+200B ZERO WIDTH SPACE; adjacent ranges merged. It is the shared
+// vector file spec/vectors/unicode/segment-exclusions.json, which test_wildcard_vectors.cpp
+// compares with this table. Unassigned code points are segment characters.
 constexpr range refused[] = {
     {0x0, 0x20},        {0x7F, 0xA0},       {0xAD, 0xAD},       {0x600, 0x605},
     {0x61C, 0x61C},     {0x6DD, 0x6DD},     {0x70F, 0x70F},     {0x890, 0x891},

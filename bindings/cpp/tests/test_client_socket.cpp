@@ -6,6 +6,7 @@
 #include "fake_server.hpp"
 #include "openair/client.hpp"
 #include "openair/content.hpp"
+#include "support.hpp"
 
 namespace openair {
 namespace {
@@ -202,6 +203,58 @@ TEST(ClientSocket, LegacyServerDeliversOnTheListeningPort) {
     EXPECT_EQ(notes[0].msg.type, "Some.Note");
     poll_until(c, [&] { return script.wait_for(0s) == std::future_status::ready; });
     EXPECT_EQ(script.get(), "ok");
+}
+
+std::string frame_of(const std::string& xml) {
+    return encode_frame(frame{frame_tag::message, xml, {}});
+}
+
+// A delivery the client cannot read is never lost silently: answered RECEIVE_ERROR, counted
+// and reported (OA-MSG-20). Psyclone's barrier wakeup (priority="7.00") is read (OA-MSG-19).
+TEST(ClientSocket, UnreadableDeliveriesAreCountedAndReported) {
+    std::string barrier =
+        test::read_file(test::vectors_dir() + "/legacy/psy2-cc003-barrier-wakeup.xml");
+    std::string bad_trigger = barrier;
+    const std::string legacy_priority = "priority=\"7.00\"";
+    bad_trigger.replace(bad_trigger.find(legacy_priority), legacy_priority.size(),
+                        "priority=\"high\"");
+    fake_server server;
+    std::uint16_t module_port = fake_server::free_port();
+    auto script = std::async(std::launch::async, [&] {
+        peer primary = server.accept();
+        send_capabilities(primary, primary.expect("GET_CAPABILITIES"), true);
+        primary.reply(primary.expect("BIND"), "BIND_ACCEPT", std::to_string(module_port));
+        peer callback = server.accept();
+        (void)callback.read_frame();
+        primary.reply(primary.expect("Psyclone.Module.Connect.Mod"), "RECEIVE_ACCEPT");
+        peer delivery = fake_server::connect_to(module_port);
+        delivery.send_raw(frame_of(barrier));
+        delivery.expect("RECEIVE_ACCEPT");
+        delivery.send_raw(frame_of(bad_trigger));
+        delivery.expect("RECEIVE_ERROR");
+        delivery.send_raw(frame_of("<message><type>Direct</type><to>Mod</to"));
+        delivery.expect("RECEIVE_ERROR");  // OA-ERR-3: the connection stays usable
+        delivery.send_raw(frame_of(barrier));
+        delivery.expect("RECEIVE_ACCEPT");
+        return std::string("ok");
+    });
+    client_options o = options_for(server);
+    o.listen = true;
+    client c = client::connect(o);
+    std::vector<std::string> reasons;
+    std::vector<wakeup_event> wakeups;
+    c.on_dropped_delivery([&](const std::string& why) { reasons.push_back(why); });
+    c.on_wakeup([&](const wakeup_event& e) { wakeups.push_back(e); });
+    poll_until(c, [&] { return script.wait_for(0s) == std::future_status::ready; });
+    poll_until(c, [&] { return wakeups.size() >= 2; });
+    EXPECT_EQ(script.get(), "ok");
+    EXPECT_EQ(c.undecodable_deliveries(), 2u);
+    ASSERT_EQ(reasons.size(), 2u);
+    EXPECT_NE(reasons[0].find("priority"), std::string::npos) << reasons[0];
+    EXPECT_NE(reasons[1].find("XML_MALFORMED"), std::string::npos) << reasons[1];
+    ASSERT_EQ(wakeups.size(), 2u);
+    ASSERT_TRUE(wakeups[0].wakeup.trigger.has_value());
+    EXPECT_EQ(wakeups[0].wakeup.trigger->priority, std::optional<double>(6.999));
 }
 
 TEST(ClientSocket, FailureRepliesAreRequestFailed) {

@@ -199,6 +199,56 @@ TEST_P(InvalidMessages, DecodeGivesError) {
     }
 }
 
+// spec/vectors/legacy: what Psyclone 1.1.7 writes, read as a client reads it (OA-MSG-19).
+std::vector<message_case> load_legacy_cases() {
+    std::vector<message_case> out;
+    json::value manifest = test::load_manifest("legacy/manifest.json");
+    for (const json::value& c : manifest.at("cases").as_array()) {
+        out.push_back({c.at("name").as_string(), c});
+    }
+    return out;
+}
+
+std::string legacy_source(const json::value& c) {
+    return test::read_file(test::vectors_dir() + "/legacy/" + c.at("file").as_string());
+}
+
+class LegacyMessages : public testing::TestWithParam<message_case> {};
+
+TEST_P(LegacyMessages, ClientReadingGivesFields) {
+    const json::value& c = GetParam().spec;
+    message m = decode_message(legacy_source(c), {}, {}, true);
+    expect_fields(m, c.at("expected").at("fields"));
+    if (const json::value* nested = c.at("expected").find("nested")) {
+        ASSERT_TRUE(m.content_is_xml);
+        std::optional<message> inner = find_message(m.content);  // always read liberally
+        ASSERT_TRUE(inner.has_value());
+        expect_fields(*inner, *nested);
+    }
+    // A writer stays strict: what was read is written back in range and reads back the same.
+    EXPECT_TRUE(decode_message(encode_message(m)) == m);
+}
+
+TEST_P(LegacyMessages, StrictReadingOfAPost) {
+    const json::value& c = GetParam().spec;
+    const json::value* strict = c.find("strict");
+    if (strict == nullptr) {
+        EXPECT_TRUE(decode_message(legacy_source(c)) ==
+                    decode_message(legacy_source(c), {}, {}, true));
+        return;
+    }
+    try {
+        (void)decode_message(legacy_source(c));
+        ADD_FAILURE() << "a server must refuse it";
+    } catch (const error& e) {
+        EXPECT_EQ(errc_name(e.code()), strict->at("error").as_string()) << e.what();
+        EXPECT_NE(e.detail().find("priority"), std::string::npos) << e.detail();
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Legacy, LegacyMessages, testing::ValuesIn(load_legacy_cases()),
+                         case_name);
+
 INSTANTIATE_TEST_SUITE_P(Manifest, ValidMessages, testing::ValuesIn(load_cases(true)), case_name);
 INSTANTIATE_TEST_SUITE_P(Manifest, InvalidMessages, testing::ValuesIn(load_cases(false)),
                          case_name);

@@ -1,6 +1,11 @@
 // Every row of spec/vectors/wildcards/wildcards.json against the validators and the matcher.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <string>
+#include <utility>
+#include <vector>
+
 #include "openair/error.hpp"
 #include "openair/types.hpp"
 #include "support.hpp"
@@ -30,6 +35,52 @@ TEST(WildcardVectors, EveryRow) {
         ++rows;
     }
     EXPECT_GT(rows, 1000u);
+}
+
+std::string utf8(char32_t cp) {
+    std::string out;
+    if (cp < 0x80) {
+        out += static_cast<char>(cp);
+    } else if (cp < 0x800) {
+        out += static_cast<char>(0xC0 | (cp >> 6));
+        out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else if (cp < 0x10000) {
+        out += static_cast<char>(0xE0 | (cp >> 12));
+        out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+        out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else {
+        out += static_cast<char>(0xF0 | (cp >> 18));
+        out += static_cast<char>(0x80 | ((cp >> 12) & 0x3F));
+        out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+        out += static_cast<char>(0x80 | (cp & 0x3F));
+    }
+    return out;
+}
+
+// The table of spec 5.1 (OA-TYPE-5) is the shared vector file: both ends of every range are
+// refused, and the code points just outside a range are accepted unless another range holds
+// them. Surrogates (Cs) cannot be written in UTF-8 and are refused by the decoder instead.
+TEST(WildcardVectors, ExcludedTableIsTheSharedVectorFile) {
+    json::value table = test::load_manifest("unicode/segment-exclusions.json");
+    ASSERT_EQ(table.at("unicode_version").as_string(), "14.0.0");
+    std::vector<std::pair<char32_t, char32_t>> ranges;
+    for (const json::value& r : table.at("ranges").as_array()) {
+        auto cp = [&](const char* key) {
+            return static_cast<char32_t>(std::stoul(r.at(key).as_string().substr(2), nullptr, 16));
+        };
+        ranges.emplace_back(cp("first"), cp("last"));
+    }
+    auto excluded = [&](char32_t cp) {
+        return std::any_of(ranges.begin(), ranges.end(),
+                           [cp](const auto& r) { return cp >= r.first && cp <= r.second; });
+    };
+    ASSERT_GT(ranges.size(), 30u);
+    for (const auto& [first, last] : ranges) {
+        for (char32_t cp : {first, last, char32_t(first - 1), char32_t(last + 1)}) {
+            if (cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF) || cp == '.' || cp == '*') continue;
+            EXPECT_EQ(is_valid_type("A" + utf8(cp) + "B"), !excluded(cp)) << "U+" << std::hex << cp;
+        }
+    }
 }
 
 TEST(WildcardVectors, ValidatorsThrowTheirConditions) {

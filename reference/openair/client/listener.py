@@ -28,19 +28,34 @@ log = logging.getLogger("openair.client")
 
 #: Called for each delivered request with its arrival time (ns); returns the reply type or None.
 Handler = Callable[[Message, int], Awaitable[str | None]]
+#: Called with the reason when a delivery is lost because it cannot be read (OA-MSG-20).
+DropHandler = Callable[[str], None]
 
 _READ_SIZE = 65536
 
 
+def _dropped(on_drop: DropHandler | None, reason: str) -> None:
+    """Log and count a delivery that cannot be read: never lose one silently (OA-MSG-20)."""
+    log.warning("delivery dropped: %s", reason)
+    if on_drop is not None:
+        on_drop(reason)
+
+
 async def _answer(
-    conn: ClientConnection, event: Request | Invalid, handler: Handler, received_ns: int
+    conn: ClientConnection,
+    event: Request | Invalid,
+    handler: Handler,
+    received_ns: int,
+    on_drop: DropHandler | None = None,
 ) -> bytes | None:
     """Run the handler for one request and return the answer frame (None for noreply)."""
     if isinstance(event, Invalid):
+        _dropped(on_drop, event.error.wire_text())
         return conn.answer(event)  # OA-ERR-3: RECEIVE_ERROR, the connection stays usable
     try:
         kind = await handler(event.message, received_ns)
     except OpenAIRError as exc:
+        _dropped(on_drop, f"{event.message.type!r} {event.message.id!r}: {exc.wire_text()}")
         if not event.needs_answer:
             return None
         return conn.answer(event, "RECEIVE_ERROR", content=exc.wire_text())  # OA-ERR-2
@@ -54,11 +69,13 @@ async def serve_responder(
     writer: asyncio.StreamWriter,
     conn: ClientConnection,
     handler: Handler,
+    on_drop: DropHandler | None = None,
 ) -> None:
     """Answer the requests arriving on one connection until it closes.
 
     Returns when the peer closes; a remote protocol error closes the connection (OA-FRAME-9)
     and is logged, never raised: an error on one connection does not affect others (OA-ERR-4).
+    Every delivery that cannot be read is logged and reported to `on_drop` (OA-MSG-20).
     """
     try:
         while True:
@@ -69,12 +86,12 @@ async def serve_responder(
                     return
                 if isinstance(event, Reply):
                     continue  # a responder session never pairs replies (OA-SESS-28)
-                frame = await _answer(conn, event, handler, received_ns)
+                frame = await _answer(conn, event, handler, received_ns, on_drop)
                 if frame is not None:
                     writer.write(frame)
             await writer.drain()
     except RemoteProtocolError as exc:
-        log.warning("delivery connection closed: %s", exc)
+        _dropped(on_drop, f"delivery connection closed: {exc.wire_text()}")
     except OSError as exc:
         log.debug("delivery connection lost: %s", exc)
     except Exception:
@@ -99,8 +116,10 @@ class Listener:
         name: str,
         extensions: Iterable[str] = (),
         now: Callable[[], int] = time.time_ns,
+        on_drop: DropHandler | None = None,
     ) -> None:
         self._handler = handler
+        self._on_drop = on_drop
         self._name = name
         self.extensions = frozenset(extensions)
         self._now = now
@@ -129,7 +148,8 @@ class Listener:
         if task is not None:
             self._tasks.add(task)
             task.add_done_callback(self._tasks.discard)
-        await serve_responder(reader, writer, self._session(Role.RESPONDER), self._handler)
+        session = self._session(Role.RESPONDER)
+        await serve_responder(reader, writer, session, self._handler, self._on_drop)
 
     async def listen(self, host: str, port: int) -> int:
         """Listen on `host:port` (the BIND_ACCEPT port, OA-DELIV-10) and return the port."""
@@ -152,7 +172,8 @@ class Listener:
         conn = self._session(Role.REQUESTER)
         writer.write(conn.send_notification(notification))
         await writer.drain()
-        self._callback = self._spawn(serve_responder(reader, writer, conn, self._handler))
+        serve = serve_responder(reader, writer, conn, self._handler, self._on_drop)
+        self._callback = self._spawn(serve)
 
     async def close_callback(self) -> None:
         """Close the callback connection, if one is open."""

@@ -204,7 +204,7 @@ class Module:
         self._messages: asyncio.Queue[MessageEvent | None] = asyncio.Queue(inbox_size)
         self._samples: asyncio.Queue[ReceivedSample | None] = asyncio.Queue(inbox_size)
         self._streams: ModuleStreams | None = None
-        self._listener = Listener(self._deliver, name=name, now=now)
+        self._listener = Listener(self._deliver, name=name, now=now, on_drop=self._dropped)
         self._link: Link | None = None
         self._ready = asyncio.Event()
         self._changed = asyncio.Condition()
@@ -216,7 +216,10 @@ class Module:
         self.bound_port: int | None = None
         self.registration: Registration | None = None
         self.generation = 0
+        #: Deliveries lost: inbox overflow of direct messages, and every delivery that could
+        #: not be read (also counted in `undecodable_deliveries`, OA-MSG-20).
         self.dropped_messages = 0
+        self.undecodable_deliveries = 0
 
     # -- lifecycle ---------------------------------------------------------------------------
 
@@ -446,6 +449,11 @@ class Module:
                 self.dropped_messages += 1
             self._messages.put_nowait(direct)
         return None
+
+    def _dropped(self, reason: str) -> None:
+        """Count a delivery that could not be read; the listener logged it (OA-MSG-20)."""
+        self.undecodable_deliveries += 1
+        self.dropped_messages += 1
 
     async def _call(self, callback: Callable[[_E], Awaitable[None] | None], event: _E) -> None:
         """Run a user callback; its failure is logged, the delivery is still acknowledged."""

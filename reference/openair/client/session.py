@@ -386,10 +386,12 @@ class ClientConnection:
 
     def _event_for(self, frame: Frame) -> Event:
         """Turn one complete frame into an event."""
+        # OA-MSG-19: a client reads what a legacy server writes; a priority out of range is
+        # clamped, not refused (a server validating a post is stricter, OA-MSG-6).
         if self._state is State.REQUESTER:
-            return self._reply_for(from_frame(frame))
+            return self._reply_for(from_frame(frame, clamp_priority=True))
         try:
-            msg = from_frame(frame)
+            msg = from_frame(frame, clamp_priority=True)
         except RemoteProtocolError as exc:
             if exc.closes:
                 raise

@@ -267,7 +267,11 @@ async def serve(reader: asyncio.StreamReader, write: Writer = _write_stdout) -> 
                 continue
             if not isinstance(command, dict):
                 print("shim: a command must be a JSON object", file=sys.stderr)
-                continue
+                continue  # OA-GEN-5: no answer, it could not be paired with a command
+            seq = command.get("seq")
+            if not isinstance(seq, int) or isinstance(seq, bool) or seq < 0:
+                print(f"shim: a command needs a non-negative integer seq: {raw!r}", file=sys.stderr)
+                continue  # OA-GEN-5
             write(await shim.handle(command))
     finally:
         if shim.module is not None:

@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 from openair.content import ContentMatch, RetrieveSpec
+from openair.contentmatch import canonical_xml_text, text_content
 from openair.errors import StoreFailedError
 from openair.fastcodec import derived
 from openair.matching import matches
@@ -19,9 +20,8 @@ from openair.message import Message
 from openair.server.commands import ms_time
 from openair.server.config import DEFAULT_MAXCOUNT, DEFAULT_WB_PRIORITY, WhiteboardConfig
 from openair.server.store import HistoryStore
-from openair.xmlsafe import parse_fragment
 
-__all__ = ["Whiteboard", "content_glob", "derive", "text_of"]
+__all__ = ["Whiteboard", "content_glob", "derive", "text_of", "xml_text_of"]
 
 _NS_PER_MS = 1_000_000
 # Evict from the store in batches: memory is exact (OA-WB-6), the store may lag a little, and
@@ -66,13 +66,13 @@ def content_glob(pattern: str) -> Callable[[str], bool]:
 
 
 def text_of(msg: Message) -> str:
-    """Return a message's text content: for XML content, the text of its elements (OA-RET-13)."""
-    if not msg.content_is_xml:
-        return msg.content
-    try:
-        return "".join(str(t) for el in parse_fragment(msg.content) for t in el.itertext())
-    except Exception:  # content that no longer parses has no element text to offer
-        return ""
+    """Return a message's text content (OA-RET-18): its text, or that of its XML content."""
+    return text_content(msg.content) if msg.content_is_xml else msg.content
+
+
+def xml_text_of(msg: Message) -> str:
+    """Return what a `contentmatch="xml"` glob sees: the canonical XML text (OA-RET-17)."""
+    return canonical_xml_text(msg.content) if msg.content_is_xml else msg.content
 
 
 class Whiteboard:
@@ -251,9 +251,9 @@ def _criteria(spec: RetrieveSpec) -> Callable[[Message], bool]:
     if spec.content:
         glob = content_glob(spec.content)  # OA-RET-8
         if spec.contentmatch is ContentMatch.XML:
-            checks.append(lambda m: glob(m.content))  # OA-RET-13: the XML as written
+            checks.append(lambda m: glob(xml_text_of(m)))  # OA-RET-13, OA-RET-17
         else:
-            checks.append(lambda m: glob(text_of(m)))
+            checks.append(lambda m: glob(text_of(m)))  # OA-RET-18
     if not checks:
         return lambda m: True
     if len(checks) == 1:

@@ -119,6 +119,11 @@ public:
 
     void on_wakeup(std::function<void(const wakeup_event&)> callback);
     void on_message(std::function<void(const message_event&)> callback);
+    /// Called with the reason each time a delivery cannot be read (its frame, its envelope or a
+    /// wakeup's content) and is therefore lost; it is answered RECEIVE_ERROR as OA-SESS-11
+    /// requires and counted in `undecodable_deliveries` (OA-MSG-20). Without a callback the
+    /// reason is written to std::clog. Runs while the client reads: it must not call the client.
+    void on_dropped_delivery(std::function<void(const std::string& reason)> callback);
 
     /// Wait up to `timeout` for deliveries and hand every queued one to its callback; return
     /// how many were handed over. Also keeps the session alive (KEEPALIVE) and reconnects a
@@ -170,6 +175,8 @@ public:
     [[nodiscard]] std::optional<std::uint16_t> listen_port() const noexcept;
     /// How many times the session was established (1 after `connect`).
     [[nodiscard]] unsigned generation() const noexcept;
+    /// How many deliveries could not be read and were lost (OA-MSG-20).
+    [[nodiscard]] std::uint64_t undecodable_deliveries() const noexcept;
     [[nodiscard]] const std::string& name() const noexcept;
 
 private:

@@ -26,11 +26,17 @@ struct xml_limits {
 /// slots in order (OA-MSG-5). The parser loads no DTD, expands no entity, touches no network
 /// (OA-SEC-1/2) and bounds depth (OA-LIM-3). Throws XML_MALFORMED (also when the root is not
 /// `message`), XML_FORBIDDEN, XML_TOO_DEEP and MESSAGE_INVALID.
+///
+/// `clamp_priority` reads a priority outside 0.0-6.999 as the nearest end of the range instead
+/// of refusing it (Psyclone echoes a posted 6.999 as `7.00`): what a client does with the
+/// deliveries and replies it receives (OA-MSG-19). Stored copies nested in content
+/// (`find_message`, wakeups, retrieve results) are always read that way.
 [[nodiscard]] message decode_message(std::string_view xml, std::vector<std::string> chunks = {},
-                                     const xml_limits& limits = {});
+                                     const xml_limits& limits = {}, bool clamp_priority = false);
 
 /// Decode a Message or Receive frame; a BinaryM frame carries no message (MESSAGE_INVALID).
-[[nodiscard]] message from_frame(const frame& f, const xml_limits& limits = {});
+[[nodiscard]] message from_frame(const frame& f, const xml_limits& limits = {},
+                                 bool clamp_priority = false);
 
 /// Write `msg` in the canonical form of spec 3.5 (byte for byte what
 /// spec/vectors/messages/*.canonical.xml hold): UTF-8, no declaration, no indentation.

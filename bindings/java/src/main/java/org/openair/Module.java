@@ -51,6 +51,23 @@ public interface Module extends AutoCloseable {
     int generation();
 
     /**
+     * Deliveries that could not be read (their frame, envelope or wakeup content): each was
+     * answered RECEIVE_ERROR, logged with its reason (WARNING on {@code org.openair}), reported
+     * to the connection listener's {@code onError} and lost (OA-MSG-20).
+     *
+     * @return how many deliveries could not be read
+     */
+    long undecodableDeliveries();
+
+    /**
+     * Deliveries lost: those of {@link #undecodableDeliveries()} plus direct messages dropped
+     * because the inbox was full and nobody read it.
+     *
+     * @return how many deliveries were lost
+     */
+    long droppedMessages();
+
+    /**
      * Post text content and wait for RECEIVE_ACCEPT (OA-WB-3).
      *
      * @param to the whiteboard (or module) addressed

@@ -61,11 +61,29 @@ public final class Codec {
      *     OA-MSG-1), XML_FORBIDDEN, XML_TOO_DEEP or MESSAGE_INVALID
      */
     public static Message decode(byte[] xml, List<byte[]> chunks, long maxBytes, int maxDepth) {
+        return decode(xml, chunks, maxBytes, maxDepth, false);
+    }
+
+    /**
+     * Parse like {@link #decode(byte[], List, long, int)}, optionally reading a priority outside
+     * 0.0-6.999 as the nearest end of the range instead of refusing it: what a client does with
+     * the deliveries and replies it receives (OA-MSG-19; Psyclone echoes 6.999 as 7.00).
+     *
+     * @param xml the XML bytes
+     * @param chunks the binary chunks that followed it
+     * @param maxBytes the XML size limit
+     * @param maxDepth the depth limit
+     * @param clampPriority clamp an out-of-range priority (a client) or refuse it (a server
+     *     reading a post, OA-MSG-6)
+     * @return the message
+     */
+    public static Message decode(byte[] xml, List<byte[]> chunks, long maxBytes, int maxDepth,
+            boolean clampPriority) {
         Element root = SafeXml.parse(xml, maxBytes, maxDepth);
         if (!Dom.name(root).equals("message")) { // OA-MSG-1
             throw SafeXml.malformed("root element is <" + root.getTagName() + ">, not <message>");
         }
-        return decodeElement(root, chunks);
+        return decodeElement(root, chunks, clampPriority);
     }
 
     /**
@@ -80,6 +98,8 @@ public final class Codec {
 
     /**
      * Read a {@code <message>} element (any case), e.g. a stored copy inside a content object.
+     * A stored copy is what a server wrote, so a priority outside 0.0-6.999 is clamped
+     * (OA-MSG-19).
      *
      * @param el the element
      * @return the message
@@ -88,16 +108,17 @@ public final class Codec {
         if (!Dom.name(el).equals("message")) {
             throw invalid("expected a <message> element, found <" + el.getTagName() + ">");
         }
-        return decodeElement(el, List.of());
+        return decodeElement(el, List.of(), true);
     }
 
     static RemoteProtocolException invalid(String detail) {
         return new RemoteProtocolException(ErrorCode.MESSAGE_INVALID, detail);
     }
 
-    private static Message decodeElement(Element root, List<byte[]> chunks) {
+    private static Message decodeElement(Element root, List<byte[]> chunks,
+            boolean clampPriority) {
         Message.Builder b = Message.builder("").id("").binary(chunks);
-        readRootAttributes(root, b);
+        readRootAttributes(root, b, clampPriority);
         List<Slot> extras = new ArrayList<>();
         Set<String> seen = new HashSet<>();
         String type = null;
@@ -180,13 +201,17 @@ public final class Codec {
         return out;
     }
 
-    private static void readRootAttributes(Element root, Message.Builder b) {
+    private static void readRootAttributes(Element root, Message.Builder b,
+            boolean clampPriority) {
         Map<String, String> attrs = attributes(root);
         String priority = attrs.get("priority");
         if (priority != null) {
             double value = decimal(priority, "priority");
-            if (!(value >= 0.0 && value <= 6.999)) { // OA-MSG-6
-                throw invalid("priority '" + priority + "' is outside 0.0-6.999");
+            if (!(value >= 0.0 && value <= 6.999)) {
+                if (!clampPriority) { // OA-MSG-6: a server refuses a post out of range
+                    throw invalid("priority '" + priority + "' is outside 0.0-6.999");
+                }
+                value = value < 0.0 ? 0.0 : 6.999; // OA-MSG-19: a legacy peer's 7.00 is 6.999
             }
             b.priority(value);
         }

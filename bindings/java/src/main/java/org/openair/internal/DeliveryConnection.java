@@ -6,6 +6,7 @@ import java.io.OutputStream;
 import java.net.Socket;
 import java.net.SocketTimeoutException;
 import java.util.List;
+import java.util.function.BiConsumer;
 import java.util.function.Consumer;
 import java.util.function.LongSupplier;
 import org.openair.ConnectionClosedException;
@@ -46,17 +47,21 @@ final class DeliveryConnection implements Runnable {
     private final DeliveryPath path;
     private final LongSupplier clock;
     private final Consumer<Throwable> onError;
+    private final BiConsumer<String, OpenAirException> onDropped;
     private final Runnable onEnd;
     private volatile boolean closing;
 
     DeliveryConnection(Socket socket, Session session, Handler handler, DeliveryPath path,
-            LongSupplier clock, Consumer<Throwable> onError, Runnable onEnd) {
+            LongSupplier clock, Consumer<Throwable> onError,
+            BiConsumer<String, OpenAirException> onDropped,
+            Runnable onEnd) {
         this.socket = socket;
         this.session = session;
         this.handler = handler;
         this.path = path;
         this.clock = clock;
         this.onError = onError;
+        this.onDropped = onDropped;
         this.onEnd = onEnd;
     }
 
@@ -118,6 +123,8 @@ final class DeliveryConnection implements Runnable {
                 out.flush();
             }
         } catch (RemoteProtocolException e) {
+            // OA-MSG-20; the error itself is reported through onError below.
+            onDropped.accept("delivery connection closed: " + e.wireText(), null);
             answerFramingError(e); // OA-FRAME-7: a responder says why before it closes
             if (!closing) {
                 onError.accept(e);
@@ -149,7 +156,8 @@ final class DeliveryConnection implements Runnable {
     }
 
     private byte[] answer(Session.Event event, long receivedNanos) {
-        if (event instanceof Session.Invalid) {
+        if (event instanceof Session.Invalid invalid) {
+            onDropped.accept(invalid.error().wireText(), invalid.error()); // OA-MSG-20
             return session.answer(event, null, ""); // OA-ERR-3: RECEIVE_ERROR, stays usable
         }
         if (!(event instanceof Session.Request request)) {
@@ -159,6 +167,8 @@ final class DeliveryConnection implements Runnable {
         try {
             type = handler.handle(request.message(), receivedNanos, path);
         } catch (OpenAirException e) {
+            Message m = request.message();
+            onDropped.accept("'" + m.type() + "' " + m.id() + ": " + e.wireText(), e); // OA-MSG-20
             if (!request.needsAnswer()) {
                 return null;
             }

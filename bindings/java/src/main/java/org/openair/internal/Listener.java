@@ -8,11 +8,13 @@ import java.net.Socket;
 import java.util.Set;
 import java.util.concurrent.ConcurrentHashMap;
 import java.util.concurrent.atomic.AtomicInteger;
+import java.util.function.BiConsumer;
 import java.util.function.Consumer;
 import java.util.function.Function;
 import java.util.function.LongSupplier;
 import org.openair.ConnectionClosedException;
 import org.openair.DeliveryPath;
+import org.openair.OpenAirException;
 
 /**
  * The module's receiving side: its listening socket (OA-DELIV-10) and its callback connection
@@ -27,6 +29,7 @@ final class Listener {
     private final Function<Session.Role, Session> sessions;
     private final LongSupplier clock;
     private final Consumer<Throwable> onError;
+    private final BiConsumer<String, OpenAirException> onDropped;
     private final Set<DeliveryConnection> connections = ConcurrentHashMap.newKeySet();
     private final AtomicInteger counter = new AtomicInteger();
     private ServerSocket server; // guarded by this
@@ -34,12 +37,13 @@ final class Listener {
     private boolean closed; // guarded by this
 
     Listener(String name, DeliveryConnection.Handler handler, Function<Session.Role, Session> sessions, LongSupplier clock,
-            Consumer<Throwable> onError) {
+            Consumer<Throwable> onError, BiConsumer<String, OpenAirException> onDropped) {
         this.name = name;
         this.handler = handler;
         this.sessions = sessions;
         this.clock = clock;
         this.onError = onError;
+        this.onDropped = onDropped;
     }
 
     /** @return the listening port, or -1 */
@@ -94,7 +98,7 @@ final class Listener {
     private DeliveryConnection serve(Socket socket, Session session, DeliveryPath path) {
         DeliveryConnection[] self = new DeliveryConnection[1];
         DeliveryConnection d = new DeliveryConnection(socket, session, handler, path, clock, onError,
-                () -> connections.remove(self[0]));
+                onDropped, () -> connections.remove(self[0]));
         self[0] = d;
         connections.add(d);
         return d;

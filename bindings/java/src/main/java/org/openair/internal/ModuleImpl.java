@@ -15,6 +15,7 @@ import java.util.concurrent.LinkedBlockingQueue;
 import java.util.concurrent.ScheduledExecutorService;
 import java.util.concurrent.TimeUnit;
 import java.util.concurrent.TimeoutException;
+import java.util.concurrent.atomic.AtomicLong;
 import org.openair.ApiMisuseException;
 import org.openair.Capabilities;
 import org.openair.ConnectionClosedException;
@@ -71,6 +72,8 @@ public final class ModuleImpl implements Module {
     private volatile Set<String> extensions = Set.of();
     private volatile int boundPort = -1;
     private volatile Registration registration;
+    private final AtomicLong undecodable = new AtomicLong(); // OA-MSG-20
+    private final AtomicLong dropped = new AtomicLong();
 
     private ModuleImpl(Options o) {
         this.o = o;
@@ -78,7 +81,7 @@ public final class ModuleImpl implements Module {
         this.messages = new LinkedBlockingQueue<>(o.inboxSize());
         this.dispatcher = new Dispatcher(name, o.inboxSize(), this::reportListenerFailure);
         this.listener = new Listener(name, this::handle, this::newSession, o.clock(),
-                this::reportError);
+                this::reportError, this::deliveryDropped);
         this.maintenance = Executors.newSingleThreadScheduledExecutor(r -> {
             Thread t = new Thread(r, "openair-" + name + "-maintenance");
             t.setDaemon(true);
@@ -326,12 +329,27 @@ public final class ModuleImpl implements Module {
                 dispatcher.submit(() -> o.messageListener().onMessage(d));
             } else if (!messages.offer(d)) { // nobody may be reading these: keep the newest
                 messages.poll();
+                dropped.incrementAndGet();
                 messages.offer(d);
             }
             return null;
         } catch (InterruptedException e) {
             Thread.currentThread().interrupt();
             throw new ConnectionClosedException("interrupted while handing a delivery over");
+        }
+    }
+
+    /**
+     * Count, log and report a delivery that cannot be read: never lose one silently (OA-MSG-20).
+     * {@code error} goes to the connection listener unless it was reported already (null).
+     */
+    private void deliveryDropped(String reason, OpenAirException error) {
+        undecodable.incrementAndGet();
+        dropped.incrementAndGet();
+        LOG.log(Level.WARNING, name + ": delivery dropped: " + reason);
+        ConnectionListener cl = o.connectionListener();
+        if (error != null && cl != null) {
+            dispatcher.offer(() -> cl.onError(error));
         }
     }
 
@@ -603,5 +621,15 @@ public final class ModuleImpl implements Module {
         synchronized (lock) {
             return generation;
         }
+    }
+
+    @Override
+    public long undecodableDeliveries() {
+        return undecodable.get();
+    }
+
+    @Override
+    public long droppedMessages() {
+        return dropped.get();
     }
 }

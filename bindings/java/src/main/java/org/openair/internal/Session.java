@@ -417,7 +417,8 @@ public final class Session {
             throw new RemoteProtocolException(ErrorCode.MESSAGE_INVALID,
                     "a BinaryM frame carries no message");
         }
-        return Codec.decode(f.xml(), f.chunks(), maxXml, maxDepth);
+        // OA-MSG-19: a client reads what a legacy server writes, out-of-range priorities clamped.
+        return Codec.decode(f.xml(), f.chunks(), maxXml, maxDepth, true);
     }
 
     private Event eventFor(Frame f) {

@@ -11,9 +11,11 @@ import org.openair.RemoteProtocolException;
  * non-whitespace characters other than {@code *} and {@code .} (OA-TYPE-1), {@code :} included
  * (OA-TYPE-2). A pattern follows the same rules except that {@code *} may appear inside segments,
  * never twice in a row (OA-MATCH-7). Both are limited to 255 UTF-8 bytes and 32 segments
- * (OA-TYPE-4; the kit applies the same limits to patterns). "Printable" follows the shared
- * vectors: control, format, surrogate, private-use, unassigned and separator characters are
- * refused (U+200B ZERO WIDTH SPACE included).
+ * (OA-TYPE-4, OA-MATCH-9). The characters refused are those of the table of spec 5.1
+ * (OA-TYPE-5): the Unicode general categories Cc, Cf, Cs, Co, Zs, Zl and Zp as Unicode 14.0.0
+ * assigns them, embedded as {@link #EXCLUDED} (the shared vector file
+ * spec/vectors/unicode/segment-exclusions.json, which the tests compare), so validity does not
+ * depend on the JDK's Unicode version; unassigned code points are allowed.
  *
  * <p>Threading: stateless; thread-safe.
  */
@@ -77,23 +79,34 @@ public final class Types {
         return null;
     }
 
+    /**
+     * The code points of the table of spec 5.1 (OA-TYPE-5), as inclusive pairs in ascending
+     * order: Unicode 14.0.0 categories Cc, Cf, Cs, Co, Zs, Zl, Zp.
+     */
+    static final int[] EXCLUDED = {
+        0x0, 0x1F, 0x20, 0x20, 0x7F, 0x9F, 0xA0, 0xA0, 0xAD, 0xAD, 0x600, 0x605, 0x61C, 0x61C,
+        0x6DD, 0x6DD, 0x70F, 0x70F, 0x890, 0x891, 0x8E2, 0x8E2, 0x1680, 0x1680, 0x180E, 0x180E,
+        0x2000, 0x200A, 0x200B, 0x200F, 0x2028, 0x2028, 0x2029, 0x2029, 0x202A, 0x202E,
+        0x202F, 0x202F, 0x205F, 0x205F, 0x2060, 0x2064, 0x2066, 0x206F, 0x3000, 0x3000,
+        0xD800, 0xDFFF, 0xE000, 0xF8FF, 0xFEFF, 0xFEFF, 0xFFF9, 0xFFFB, 0x110BD, 0x110BD,
+        0x110CD, 0x110CD, 0x13430, 0x13438, 0x1BCA0, 0x1BCA3, 0x1D173, 0x1D17A, 0xE0001, 0xE0001,
+        0xE0020, 0xE007F, 0xF0000, 0xFFFFD, 0x100000, 0x10FFFD,
+    };
+
     private static boolean printable(int cp) {
-        if (cp == ' ') {
-            return false; // white space (OA-TYPE-1)
+        int lo = 0;
+        int hi = EXCLUDED.length / 2 - 1;
+        while (lo <= hi) { // binary search over the ranges
+            int mid = (lo + hi) >>> 1;
+            if (cp < EXCLUDED[2 * mid]) {
+                hi = mid - 1;
+            } else if (cp > EXCLUDED[2 * mid + 1]) {
+                lo = mid + 1;
+            } else {
+                return false; // OA-TYPE-5
+            }
         }
-        switch (Character.getType(cp)) {
-            case Character.CONTROL:
-            case Character.FORMAT:
-            case Character.SURROGATE:
-            case Character.PRIVATE_USE:
-            case Character.UNASSIGNED:
-            case Character.LINE_SEPARATOR:
-            case Character.PARAGRAPH_SEPARATOR:
-            case Character.SPACE_SEPARATOR:
-                return false;
-            default:
-                return true;
-        }
+        return true;
     }
 
     /**

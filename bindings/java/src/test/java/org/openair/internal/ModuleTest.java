@@ -497,6 +497,30 @@ class ModuleTest {
         }
 
         @Test
+        void unreadableDeliveriesAreCountedAndReported() throws Exception {
+            connect(options());
+            FakeServer.Conn cb = fake.callback(WAIT);
+            String barrier = new String(Vectors.bytes("legacy", "psy2-cc003-barrier-wakeup.xml"),
+                    java.nio.charset.StandardCharsets.UTF_8);
+            cb.sendXml(barrier); // Psyclone's priority="7.00" is read (OA-MSG-19)
+            assertEquals("RECEIVE_ACCEPT", cb.replies.poll(5, TimeUnit.SECONDS).type());
+            cb.sendXml(barrier.replace("priority=\"7.00\"", "priority=\"high\""));
+            assertEquals("RECEIVE_ERROR", cb.replies.poll(5, TimeUnit.SECONDS).type());
+            cb.sendXml("<message><type>Broken</type"); // OA-ERR-3: the connection stays
+            assertEquals("RECEIVE_ERROR", cb.replies.poll(5, TimeUnit.SECONDS).type());
+            assertEquals(2L, module.undecodableDeliveries()); // OA-MSG-20
+            assertEquals(2L, module.droppedMessages());
+            Throwable first = errors.poll(5, TimeUnit.SECONDS);
+            Throwable second = errors.poll(5, TimeUnit.SECONDS);
+            assertTrue(first instanceof OpenAirException e && e.code() == ErrorCode.CONTENT_INVALID
+                    && e.getMessage().contains("priority"), String.valueOf(first));
+            assertTrue(second instanceof OpenAirException e && e.code() == ErrorCode.XML_MALFORMED,
+                    String.valueOf(second));
+            Wakeup w = module.nextWakeup(WAIT).orElseThrow();
+            assertEquals(6.999, w.trigger().priority(), 0.0);
+        }
+
+        @Test
         void unreadableWakeupIsContentInvalid() throws Exception {
             connect(options());
             Message ack = fake.callback(WAIT).deliver(wakeup("<notawakeup/>"), WAIT);

@@ -85,14 +85,17 @@ CPP_SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: deps-cpp cpp test-cpp
 
-## Install GoogleTest (Debian's libgtest-dev) when it is missing; needed only by test-cpp.
+## Install what the C++ build needs when missing (Debian): GoogleTest for test-cpp, and the
+## header-only nlohmann/json (shim, tests) and CLI11 (examples, tools).
 deps-cpp:
-	@if [ ! -f /usr/include/gtest/gtest.h ]; then \
-		$(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y libgtest-dev; \
+	@if [ ! -f /usr/include/gtest/gtest.h ] || [ ! -f /usr/include/nlohmann/json.hpp ] \
+		|| [ ! -f /usr/include/CLI/CLI.hpp ]; then \
+		$(CPP_SUDO) apt-get update && \
+		$(CPP_SUDO) apt-get install -y libgtest-dev nlohmann-json3-dev libcli11-dev; \
 	fi
 
 ## Configure and build the C++ client, examples and shim (Release) into bindings/cpp/build.
-cpp:
+cpp: deps-cpp
 	cmake -S $(CPP_DIR) -B $(CPP_DIR)/build -DCMAKE_BUILD_TYPE=Release
 	cmake --build $(CPP_DIR)/build --parallel $(CPP_JOBS)
 

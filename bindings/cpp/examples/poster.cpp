@@ -3,42 +3,35 @@
 //   poster [--host 127.0.0.1] [--port 10000] [--name Poster] [--to WB1]
 //          [--type Test.Ping.A] [--content "hello ping"] [--no-bind]
 //
-// Exit status: 0 when the post was acknowledged, 2 on an error.
+// Exit status: 0 when the post was acknowledged, 2 on a bad command line or an error.
 #include <iostream>
 #include <string>
 
+#include "cli.hpp"
 #include "openair/client.hpp"
+#include "openair/version.hpp"
 
 int main(int argc, char** argv) {
+    openair::client_options options;
+    options.name = "Poster";
+    std::string to = "WB1";
+    std::string type = "Test.Ping.A";
+    std::string content = "hello ping";
+    bool no_bind = false;
+
+    CLI::App app{"Post one message to a whiteboard and wait for its acknowledgement.", "poster"};
+    app.set_version_flag("--version", std::string("openair ") + openair::version);
+    app.add_option("--host", options.host, "Server host")->capture_default_str();
+    openair_cli::add_port(app, options.port, "Server port");
+    app.add_option("--name", options.name, "Module name")->capture_default_str();
+    app.add_option("--to", to, "Whiteboard to post to")->capture_default_str();
+    app.add_option("--type", type, "Message type")->capture_default_str();
+    app.add_option("--content", content, "Text content")->capture_default_str();
+    app.add_flag("--no-bind", no_bind, "Do not bind a module name (a plain client)");
+    if (auto status = openair_cli::parse(app, argc, argv)) return *status;
+
     try {
-        openair::client_options options;
-        options.name = "Poster";
-        std::string to = "WB1";
-        std::string type = "Test.Ping.A";
-        std::string content = "hello ping";
-        for (int i = 1; i < argc; ++i) {
-            std::string key = argv[i];
-            auto value = [&]() -> std::string {
-                if (i + 1 >= argc) throw std::runtime_error(key + " needs a value");
-                return argv[++i];
-            };
-            if (key == "--host")
-                options.host = value();
-            else if (key == "--port")
-                options.port = static_cast<std::uint16_t>(std::stoi(value()));
-            else if (key == "--name")
-                options.name = value();
-            else if (key == "--to")
-                to = value();
-            else if (key == "--type")
-                type = value();
-            else if (key == "--content")
-                content = value();
-            else if (key == "--no-bind")
-                options.bind = false;
-            else
-                throw std::runtime_error("unknown option " + key);
-        }
+        options.bind = !no_bind;
         options.listen = false;  // a poster takes no deliveries: BIND_NOLISTEN
         openair::client poster = openair::client::connect(options);
         openair::message sent = poster.post(to, type, content);

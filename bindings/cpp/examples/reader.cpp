@@ -3,13 +3,15 @@
 //   reader [--host 127.0.0.1] [--port 10000] [--name Reader] [--type Test.Ping.*]
 //          [--from WB1] [--count 1] [--timeout-ms 30000] [--nolisten]
 //
-// Exit status: 0 when `count` wakeups arrived, 1 on timeout, 2 on an error.
+// Exit status: 0 when `count` wakeups arrived, 1 on timeout, 2 on a bad command line or an
+// error.
 #include <chrono>
-#include <cstdlib>
 #include <iostream>
 #include <string>
 
+#include "cli.hpp"
 #include "openair/openair.hpp"
+#include "openair/version.hpp"
 
 namespace {
 
@@ -21,42 +23,34 @@ struct args {
     long timeout_ms = 30000;
 };
 
-args parse(int argc, char** argv) {
-    args a;
-    a.options.name = "Reader";
-    for (int i = 1; i < argc; ++i) {
-        std::string key = argv[i];
-        auto value = [&]() -> std::string {
-            if (i + 1 >= argc) throw std::runtime_error(key + " needs a value");
-            return argv[++i];
-        };
-        if (key == "--host")
-            a.options.host = value();
-        else if (key == "--port")
-            a.options.port = static_cast<std::uint16_t>(std::stoi(value()));
-        else if (key == "--name")
-            a.options.name = value();
-        else if (key == "--type")
-            a.pattern = value();
-        else if (key == "--from")
-            a.from = value();
-        else if (key == "--count")
-            a.count = std::stoi(value());
-        else if (key == "--timeout-ms")
-            a.timeout_ms = std::stol(value());
-        else if (key == "--nolisten")
-            a.options.listen = false;
-        else
-            throw std::runtime_error("unknown option " + key);
-    }
-    return a;
+void describe(CLI::App& app, args& a) {
+    app.set_version_flag("--version", std::string("openair ") + openair::version);
+    app.add_option("--host", a.options.host, "Server host")->capture_default_str();
+    openair_cli::add_port(app, a.options.port, "Server port");
+    app.add_option("--name", a.options.name, "Module name")->capture_default_str();
+    app.add_option("--type", a.pattern, "Trigger type pattern")->capture_default_str();
+    app.add_option("--from", a.from, "Whiteboard of the trigger (any when empty)");
+    app.add_option("--count", a.count, "Exit 0 after this many wakeups")
+        ->check(openair_cli::at_least(1))
+        ->capture_default_str();
+    app.add_option("--timeout-ms", a.timeout_ms, "Exit 1 when they have not arrived by then")
+        ->check(openair_cli::at_least(0))
+        ->capture_default_str();
+    app.add_flag_callback(
+        "--nolisten", [&a] { a.options.listen = false; },
+        "Take deliveries on the callback connection only (BIND_NOLISTEN)");
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+    args a;
+    a.options.name = "Reader";
+    CLI::App app{"Bind a module, register a trigger and print the wakeups it receives.", "reader"};
+    describe(app, a);
+    if (auto status = openair_cli::parse(app, argc, argv)) return *status;
+
     try {
-        args a = parse(argc, argv);
         openair::client module = openair::client::connect(a.options);
         int seen = 0;
         module.on_wakeup([&seen](const openair::wakeup_event& event) {

@@ -10,7 +10,7 @@
 //       {"per_decode_us": X, "per_wakeup_us": Y}: decode_message alone, and decode_message
 //       followed by parse_wakeup.
 //
-// Exit status: 0 on success, 2 on an error (printed on stderr).
+// Exit status: 0 on success, 2 on a bad command line or an error (printed on stderr).
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
@@ -21,6 +21,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "cli.hpp"
 #include "openair/client.hpp"
 #include "openair/codec.hpp"
 #include "openair/content.hpp"
@@ -34,12 +35,6 @@ constexpr const char* post_type = "Bench.Flow.Data";
 constexpr const char* whiteboard = "WB1";
 constexpr int decode_rounds = 5;
 
-std::size_t count_arg(const char* text) {
-    long long value = std::stoll(text);
-    if (value < 1) throw std::runtime_error(std::string("expected a positive count: ") + text);
-    return static_cast<std::size_t>(value);
-}
-
 // Content that makes the post's XML about `size` bytes (its envelope measured by encoding it).
 std::string padding(const std::string& sender, std::size_t size) {
     openair::message probe = openair::make_message(post_type, sender, whiteboard);
@@ -49,10 +44,10 @@ std::string padding(const std::string& sender, std::size_t size) {
     return std::string(size > envelope ? size - envelope : 0, 'x');
 }
 
-int post(const std::string& host, const std::string& port, std::size_t n, std::size_t size) {
+int post(const std::string& host, std::uint16_t port, std::size_t n, std::size_t size) {
     openair::client_options options;
     options.host = host;
-    options.port = static_cast<std::uint16_t>(std::stoi(port));
+    options.port = port;
     options.name = "BenchCpp";
     options.listen = false;  // BIND_NOLISTEN: deliveries (none expected) on the callback
     options.announce = false;
@@ -116,21 +111,40 @@ int decode(const std::string& path, std::size_t n) {
     return 0;
 }
 
-int usage() {
-    std::cerr << "usage: openair-bench post HOST PORT N SIZE | openair-bench decode FILE N\n";
-    return 2;
+struct args {
+    std::string host;
+    std::uint16_t port = 0;
+    std::string file;
+    std::size_t n = 0;
+    std::size_t size = 0;
+};
+
+void describe(CLI::App& app, args& a) {
+    app.require_subcommand(1);
+    CLI::App* post_cmd = app.add_subcommand("post", "Time N noreply posts of about SIZE bytes");
+    post_cmd->add_option("HOST", a.host, "Server host")->required();
+    post_cmd->add_option("PORT", a.port, "Server port")->required()->check(CLI::Range(1, 65535));
+    post_cmd->add_option("N", a.n, "Posts")->required()->check(openair_cli::at_least(1));
+    post_cmd->add_option("SIZE", a.size, "XML bytes a post")
+        ->required()
+        ->check(openair_cli::at_least(1));
+    CLI::App* decode_cmd = app.add_subcommand("decode", "Time decoding the message XML in FILE");
+    decode_cmd->add_option("FILE", a.file, "A wakeup's XML or frame")->required();
+    decode_cmd->add_option("N", a.n, "Decodes a round")
+        ->required()
+        ->check(openair_cli::at_least(1));
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+    args a;
+    CLI::App app{"The C++ client's side of bench/bench_bindings.py.", "openair-bench"};
+    describe(app, a);
+    if (auto status = openair_cli::parse(app, argc, argv)) return *status;
     try {
-        std::string mode = argc > 1 ? argv[1] : "";
-        if (mode == "post" && argc == 6) {
-            return post(argv[2], argv[3], count_arg(argv[4]), count_arg(argv[5]));
-        }
-        if (mode == "decode" && argc == 4) return decode(argv[2], count_arg(argv[3]));
-        return usage();
+        if (app.got_subcommand("post")) return post(a.host, a.port, a.n, a.size);
+        return decode(a.file, a.n);
     } catch (const std::exception& e) {
         std::cerr << "openair-bench: " << e.what() << std::endl;
         return 2;

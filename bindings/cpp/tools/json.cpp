@@ -1,8 +1,9 @@
 #include "json.hpp"
 
-#include <charconv>
 #include <cmath>
-#include <cstdio>
+#include <cstdint>
+
+#include <nlohmann/json.hpp>
 
 namespace openair::json {
 
@@ -77,309 +78,74 @@ std::int64_t value::get_int(std::string_view key, std::int64_t dflt) const {
     return v == nullptr || v->is_null() ? dflt : v->as_int();
 }
 
-// -- parsing ---------------------------------------------------------------------------------
+// -- parsing and writing, by nlohmann/json ------------------------------------------------------
 
 namespace {
 
-class parser {
-public:
-    explicit parser(std::string_view text) : s_(text) {}
+using njson = nlohmann::ordered_json;
 
-    value document() {
-        value v = parse_value(0);
-        skip_ws();
-        if (i_ != s_.size()) fail("trailing characters");
-        return v;
-    }
-
-private:
-    [[noreturn]] void fail(const std::string& why) const {
-        throw json_error("JSON: " + why + " at offset " + std::to_string(i_));
-    }
-
-    void skip_ws() {
-        while (i_ < s_.size() &&
-               (s_[i_] == ' ' || s_[i_] == '\t' || s_[i_] == '\n' || s_[i_] == '\r')) {
-            ++i_;
+value from_njson(const njson& j) {
+    switch (j.type()) {
+        case njson::value_t::null: return value(nullptr);
+        case njson::value_t::boolean: return value(j.get<bool>());
+        case njson::value_t::number_integer: return value(j.get<std::int64_t>());
+        case njson::value_t::number_unsigned: {
+            auto u = j.get<std::uint64_t>();
+            // Beyond std::int64_t: a double, as any other number that is not an integer.
+            if (u > static_cast<std::uint64_t>(INT64_MAX)) return value(static_cast<double>(u));
+            return value(static_cast<std::int64_t>(u));
         }
-    }
-
-    bool literal(std::string_view word) {
-        if (s_.substr(i_, word.size()) != word) return false;
-        i_ += word.size();
-        return true;
-    }
-
-    value parse_value(int depth) {
-        if (depth > 200) fail("nesting too deep");
-        skip_ws();
-        if (i_ >= s_.size()) fail("unexpected end");
-        char c = s_[i_];
-        if (c == '{') return parse_object(depth);
-        if (c == '[') return parse_array(depth);
-        if (c == '"') return value(parse_string());
-        if (literal("true")) return value(true);
-        if (literal("false")) return value(false);
-        if (literal("null")) return value(nullptr);
-        return parse_number();
-    }
-
-    value parse_object(int depth) {
-        ++i_;
-        object members;
-        skip_ws();
-        if (i_ < s_.size() && s_[i_] == '}') {
-            ++i_;
-            return value(std::move(members));
-        }
-        while (true) {
-            skip_ws();
-            if (i_ >= s_.size() || s_[i_] != '"') fail("expected a member name");
-            std::string key = parse_string();
-            skip_ws();
-            if (i_ >= s_.size() || s_[i_] != ':') fail("expected ':'");
-            ++i_;
-            members.emplace_back(std::move(key), parse_value(depth + 1));
-            skip_ws();
-            if (i_ < s_.size() && s_[i_] == ',') {
-                ++i_;
-                continue;
-            }
-            if (i_ < s_.size() && s_[i_] == '}') {
-                ++i_;
-                return value(std::move(members));
-            }
-            fail("expected ',' or '}'");
-        }
-    }
-
-    value parse_array(int depth) {
-        ++i_;
-        array items;
-        skip_ws();
-        if (i_ < s_.size() && s_[i_] == ']') {
-            ++i_;
+        case njson::value_t::number_float: return value(j.get<double>());
+        case njson::value_t::string: return value(j.get_ref<const std::string&>());
+        case njson::value_t::array: {
+            array items;
+            items.reserve(j.size());
+            for (const njson& item : j) items.push_back(from_njson(item));
             return value(std::move(items));
         }
-        while (true) {
-            items.push_back(parse_value(depth + 1));
-            skip_ws();
-            if (i_ < s_.size() && s_[i_] == ',') {
-                ++i_;
-                continue;
-            }
-            if (i_ < s_.size() && s_[i_] == ']') {
-                ++i_;
-                return value(std::move(items));
-            }
-            fail("expected ',' or ']'");
+        case njson::value_t::object: {
+            object members;
+            members.reserve(j.size());
+            for (const auto& [key, item] : j.items()) members.emplace_back(key, from_njson(item));
+            return value(std::move(members));
         }
+        default: throw json_error("JSON: not a JSON value");
     }
-
-    unsigned hex4() {
-        if (i_ + 4 > s_.size()) fail("short \\u escape");
-        unsigned v = 0;
-        for (int k = 0; k < 4; ++k) {
-            char c = s_[i_++];
-            v <<= 4;
-            if (c >= '0' && c <= '9')
-                v |= static_cast<unsigned>(c - '0');
-            else if (c >= 'a' && c <= 'f')
-                v |= static_cast<unsigned>(c - 'a' + 10);
-            else if (c >= 'A' && c <= 'F')
-                v |= static_cast<unsigned>(c - 'A' + 10);
-            else
-                fail("bad \\u escape");
-        }
-        return v;
-    }
-
-    static void put_utf8(std::string& out, unsigned cp) {
-        if (cp < 0x80) {
-            out += static_cast<char>(cp);
-        } else if (cp < 0x800) {
-            out += static_cast<char>(0xC0 | (cp >> 6));
-            out += static_cast<char>(0x80 | (cp & 0x3F));
-        } else if (cp < 0x10000) {
-            out += static_cast<char>(0xE0 | (cp >> 12));
-            out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
-            out += static_cast<char>(0x80 | (cp & 0x3F));
-        } else {
-            out += static_cast<char>(0xF0 | (cp >> 18));
-            out += static_cast<char>(0x80 | ((cp >> 12) & 0x3F));
-            out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
-            out += static_cast<char>(0x80 | (cp & 0x3F));
-        }
-    }
-
-    std::string parse_string() {
-        ++i_;  // the opening quote
-        std::string out;
-        while (true) {
-            if (i_ >= s_.size()) fail("unterminated string");
-            char c = s_[i_++];
-            if (c == '"') return out;
-            if (static_cast<unsigned char>(c) < 0x20) fail("control character in a string");
-            if (c != '\\') {
-                out += c;
-                continue;
-            }
-            if (i_ >= s_.size()) fail("unterminated escape");
-            char e = s_[i_++];
-            switch (e) {
-                case '"': out += '"'; break;
-                case '\\': out += '\\'; break;
-                case '/': out += '/'; break;
-                case 'b': out += '\b'; break;
-                case 'f': out += '\f'; break;
-                case 'n': out += '\n'; break;
-                case 'r': out += '\r'; break;
-                case 't': out += '\t'; break;
-                case 'u': {
-                    unsigned cp = hex4();
-                    if (cp >= 0xD800 && cp <= 0xDBFF && s_.substr(i_, 2) == "\\u") {
-                        std::size_t save = i_;
-                        i_ += 2;
-                        unsigned low = hex4();
-                        if (low >= 0xDC00 && low <= 0xDFFF) {
-                            cp = 0x10000 + ((cp - 0xD800) << 10) + (low - 0xDC00);
-                        } else {
-                            i_ = save;
-                        }
-                    }
-                    put_utf8(out, cp);
-                    break;
-                }
-                default: fail("bad escape");
-            }
-        }
-    }
-
-    value parse_number() {
-        std::size_t start = i_;
-        if (i_ < s_.size() && s_[i_] == '-') ++i_;
-        bool integral = true;
-        while (i_ < s_.size()) {
-            char c = s_[i_];
-            if (c >= '0' && c <= '9') {
-                ++i_;
-            } else if (c == '.' || c == 'e' || c == 'E' || c == '+' || c == '-') {
-                integral = false;
-                ++i_;
-            } else {
-                break;
-            }
-        }
-        std::string_view text = s_.substr(start, i_ - start);
-        if (text.empty() || text == "-") fail("unexpected character");
-        if (integral) {
-            std::int64_t v = 0;
-            auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
-            if (ec == std::errc() && end == text.data() + text.size()) return value(v);
-        }
-        double d = 0.0;
-        auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), d);
-        if (ec != std::errc() || end != text.data() + text.size()) fail("bad number");
-        return value(d);
-    }
-
-    std::string_view s_;
-    std::size_t i_ = 0;
-};
-
-void dump_string(std::string& out, const std::string& s) {
-    out += '"';
-    for (std::size_t i = 0; i < s.size(); ++i) {
-        auto b = static_cast<unsigned char>(s[i]);
-        switch (b) {
-            case '"': out += "\\\""; continue;
-            case '\\': out += "\\\\"; continue;
-            case '\n': out += "\\n"; continue;
-            case '\r': out += "\\r"; continue;
-            case '\t': out += "\\t"; continue;
-            default: break;
-        }
-        if (b < 0x20 || b == 0x7F) {
-            char esc[8];
-            std::snprintf(esc, sizeof esc, "\\u%04x", b);
-            out += esc;
-            continue;
-        }
-        if (b < 0x80) {
-            out += static_cast<char>(b);
-            continue;
-        }
-        // Copy a valid UTF-8 sequence; replace anything else with U+FFFD.
-        std::size_t len = b >= 0xF0 ? 4 : b >= 0xE0 ? 3 : b >= 0xC2 ? 2 : 0;
-        bool ok = len != 0 && b <= 0xF4 && i + len <= s.size();
-        for (std::size_t k = 1; ok && k < len; ++k)
-            ok = (static_cast<unsigned char>(s[i + k]) & 0xC0) == 0x80;
-        if (ok) {
-            out.append(s, i, len);
-            i += len - 1;
-        } else {
-            out += "\xEF\xBF\xBD";
-        }
-    }
-    out += '"';
 }
 
-void dump_into(std::string& out, const value& v) {
+njson to_njson(const value& v) {
     switch (v.type()) {
-        case value::kind::null: out += "null"; break;
-        case value::kind::boolean: out += v.as_bool() ? "true" : "false"; break;
-        case value::kind::integer: out += std::to_string(v.as_int()); break;
-        case value::kind::number: {
-            double d = v.as_double();
-            if (!std::isfinite(d)) {
-                out += "null";
-                break;
-            }
-            char buf[64];
-            auto [end, ec] = std::to_chars(buf, buf + sizeof buf, d);
-            std::string text(buf, ec == std::errc() ? end : buf);
-            if (text.find_first_of(".eE") == std::string::npos) text += ".0";
-            out += text;
-            break;
-        }
-        case value::kind::string: dump_string(out, v.as_string()); break;
+        case value::kind::null: return nullptr;
+        case value::kind::boolean: return v.as_bool();
+        case value::kind::integer: return v.as_int();
+        case value::kind::number: return v.as_double();
+        case value::kind::string: return v.as_string();
         case value::kind::array: {
-            out += '[';
-            bool first = true;
-            for (const value& item : v.as_array()) {
-                if (!first) out += ", ";
-                first = false;
-                dump_into(out, item);
-            }
-            out += ']';
-            break;
+            njson items = njson::array();
+            for (const value& item : v.as_array()) items.push_back(to_njson(item));
+            return items;
         }
         case value::kind::object: {
-            out += '{';
-            bool first = true;
-            for (const auto& [key, item] : v.as_object()) {
-                if (!first) out += ", ";
-                first = false;
-                dump_string(out, key);
-                out += ": ";
-                dump_into(out, item);
-            }
-            out += '}';
-            break;
+            njson members = njson::object();
+            for (const auto& [key, item] : v.as_object()) members[key] = to_njson(item);
+            return members;
         }
     }
+    return nullptr;
 }
 
 }  // namespace
 
 value parse(std::string_view text) {
-    return parser(text).document();
+    try {
+        return from_njson(njson::parse(text));
+    } catch (const njson::parse_error& e) {
+        throw json_error(std::string("JSON: ") + e.what());
+    }
 }
 
 std::string dump(const value& v) {
-    std::string out;
-    dump_into(out, v);
-    return out;
+    return to_njson(v).dump(-1, ' ', false, njson::error_handler_t::replace);
 }
 
 }  // namespace openair::json

@@ -1,5 +1,6 @@
-// A tiny JSON reader and writer for the shim and the tests (RFC 8259; no dependency).
-// Not part of the client library.
+// The tests' JSON values (the vector manifests of spec/vectors): a small read-only value tree,
+// parsed and written by nlohmann/json (json.cpp). Not part of the client library; the shim uses
+// nlohmann/json directly.
 #pragma once
 
 #include <cstdint>
@@ -73,7 +74,8 @@ private:
     std::shared_ptr<const object> obj_;
 };
 
-/// Parse one JSON document (surrounding white space allowed); throws json_error.
+/// Parse one JSON document (RFC 8259, surrounding white space allowed); throws json_error.
+/// Integers that fit std::int64_t are integers, other numbers doubles.
 [[nodiscard]] value parse(std::string_view text);
 /// Write `v` compactly on one line; non-ASCII characters are written as UTF-8, control
 /// characters as escapes. Bytes that are not UTF-8 are written as U+FFFD.

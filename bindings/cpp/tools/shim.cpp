@@ -9,78 +9,103 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdint>
 #include <deque>
 #include <iostream>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
 
 #include "openair/client.hpp"
+#include "openair/version.hpp"
 
 namespace openair::shim {
 
 namespace {
 
-using openair::json::array;
-using openair::json::object;
-using openair::json::value;
+// -- reading commands: an absent or null member means its default ----------------------------
 
-constexpr const char* library_version = "0.1.0";
-
-value time_json(const std::optional<openair::air_time>& t) {
-    if (!t) return value(nullptr);
-    return value(array{value(t->sec), value(t->msec)});
+const json* member(const json& v, std::string_view key) {
+    auto it = v.find(key);
+    return it == v.end() || it->is_null() ? nullptr : &*it;
 }
 
-value message_json(const openair::message& m) {
-    return value(object{
-        {"type", value(m.type)},
-        {"id", value(m.id)},
-        {"from", value(m.sender)},
-        {"to", value(m.to)},
-        {"cc", value(m.cc)},
-        {"stored", value(m.stored)},
-        {"isresponse", value(m.isresponse)},
+std::string text(const json& v, std::string_view key, const std::string& dflt = "") {
+    const json* m = member(v, key);
+    return m == nullptr ? dflt : m->get<std::string>();
+}
+
+bool flag(const json& v, std::string_view key, bool dflt) {
+    const json* m = member(v, key);
+    return m == nullptr ? dflt : m->get<bool>();
+}
+
+std::int64_t integer(const json& v, std::string_view key, std::int64_t dflt) {
+    const json* m = member(v, key);
+    return m == nullptr ? dflt : m->get<std::int64_t>();
+}
+
+std::vector<std::string> strings(const json& v, std::string_view key) {
+    const json* list = member(v, key);
+    return list == nullptr ? std::vector<std::string>{} : list->get<std::vector<std::string>>();
+}
+
+// -- writing answers ---------------------------------------------------------------------------
+
+json time_json(const std::optional<openair::air_time>& t) {
+    if (!t) return nullptr;
+    return json::array({t->sec, t->msec});
+}
+
+template <typename T>
+json optional_json(const std::optional<T>& v) {
+    return v ? json(*v) : json(nullptr);
+}
+
+json message_json(const openair::message& m) {
+    return json{
+        {"type", m.type},
+        {"id", m.id},
+        {"from", m.sender},
+        {"to", m.to},
+        {"cc", m.cc},
+        {"stored", m.stored},
+        {"isresponse", m.isresponse},
         {"posted", time_json(m.posted)},
         {"received", time_json(m.received)},
-        {"priority", m.priority ? value(*m.priority) : value(nullptr)},
-        {"wbid", m.wbid ? value(*m.wbid) : value(nullptr)},
-        {"content", value(m.content)},
-        {"xml", value(m.content_is_xml)},
-    });
+        {"priority", optional_json(m.priority)},
+        {"wbid", optional_json(m.wbid)},
+        {"content", m.content},
+        {"xml", m.content_is_xml},
+    };
 }
 
-value wakeup_json(const openair::wakeup_event& e) {
-    array retrieved;
+json wakeup_json(const openair::wakeup_event& e) {
+    json retrieved = json::array();
     for (const openair::message& m : e.wakeup.retrieved) retrieved.push_back(message_json(m));
-    return value(object{
+    return json{
         {"message", message_json(e.msg)},
-        {"trigger", e.wakeup.trigger ? message_json(*e.wakeup.trigger) : value(nullptr)},
-        {"retrieved", value(std::move(retrieved))},
-        {"lasttrigger", value(e.wakeup.lasttrigger)},
-        {"received_ns", value(e.received_ns)},
-        {"path", value(e.path == openair::delivery_path::callback ? "callback" : "listener")},
-    });
+        {"trigger", e.wakeup.trigger ? message_json(*e.wakeup.trigger) : json(nullptr)},
+        {"retrieved", std::move(retrieved)},
+        {"lasttrigger", e.wakeup.lasttrigger},
+        {"received_ns", e.received_ns},
+        {"path", e.path == openair::delivery_path::callback ? "callback" : "listener"},
+    };
 }
 
-openair::retrieve_spec spec_from(const value& v) {
+openair::retrieve_spec spec_from(const json& v) {
     openair::retrieve_spec s;
-    s.whiteboard = v.get_string("whiteboard");
-    s.type = v.get_string("type");
-    s.sender = v.get_string("sender");
-    s.content = v.get_string("content");
-    s.latest = static_cast<std::uint64_t>(v.get_int("latest", 1));
-    if (const value* ms = v.find("lastmsec"); ms != nullptr && !ms->is_null()) {
-        s.lastmsec = static_cast<std::uint64_t>(ms->as_int());
+    s.whiteboard = text(v, "whiteboard");
+    s.type = text(v, "type");
+    s.sender = text(v, "sender");
+    s.content = text(v, "content");
+    s.latest = static_cast<std::uint64_t>(integer(v, "latest", 1));
+    if (const json* ms = member(v, "lastmsec")) {
+        s.lastmsec = static_cast<std::uint64_t>(ms->get<std::int64_t>());
     }
     return s;
-}
-
-std::vector<std::string> strings(const value& v, std::string_view key) {
-    std::vector<std::string> out;
-    if (const value* list = v.find(key); list != nullptr && !list->is_null()) {
-        for (const value& item : list->as_array()) out.push_back(item.as_string());
-    }
-    return out;
 }
 
 class driver {
@@ -89,19 +114,19 @@ public:
 
     /// Handle one command line; false once the shim must exit.
     bool handle(const std::string& line) {
-        value cmd;
+        json cmd;
         std::int64_t seq = 0;
         std::string name;
         try {
-            cmd = openair::json::parse(line);
-            seq = cmd.get_int("seq", 0);
-            name = cmd.at("cmd").as_string();
+            cmd = json::parse(line);
+            seq = integer(cmd, "seq", 0);
+            name = cmd.at("cmd").get<std::string>();
             if (hooks_.command) cmd = hooks_.command(name, cmd);
-            object fields;
+            json fields = json::object();
             bool more = run(name, cmd, fields);
-            object answer{{"seq", value(seq)}, {"ok", value(true)}};
-            for (auto& field : fields) answer.push_back(std::move(field));
-            say(name, value(std::move(answer)));
+            json answer{{"seq", seq}, {"ok", true}};
+            answer.update(fields);
+            say(name, std::move(answer));
             return more;
         } catch (const openair::error& e) {
             fail(name, seq, std::string(openair::errc_name(e.code())),
@@ -122,19 +147,21 @@ public:
         }
     }
 
-    static void write(const value& v) { std::cout << openair::json::dump(v) << '\n' << std::flush; }
+    /// Write one protocol line: compact, UTF-8, bytes that are not UTF-8 as U+FFFD.
+    static void write(const json& v) {
+        std::cout << v.dump(-1, ' ', false, json::error_handler_t::replace) << '\n' << std::flush;
+    }
 
 private:
-    void say(const std::string& name, value answer) const {
+    void say(const std::string& name, json answer) const {
         write(hooks_.answer ? hooks_.answer(name, std::move(answer)) : answer);
     }
 
     void fail(const std::string& name, std::int64_t seq, const std::string& code,
-              const std::string& text) const {
-        say(name, value(object{
-                      {"seq", value(seq)},
-                      {"ok", value(false)},
-                      {"error", value(object{{"code", value(code)}, {"message", value(text)}})}}));
+              const std::string& message) const {
+        say(name, json{{"seq", seq},
+                       {"ok", false},
+                       {"error", json{{"code", code}, {"message", message}}}});
     }
 
     openair::client& connected() {
@@ -142,7 +169,7 @@ private:
         return *client_;
     }
 
-    bool run(const std::string& name, const value& cmd, object& out) {
+    bool run(const std::string& name, const json& cmd, json& out) {
         if (name == "connect") return connect(cmd, out);
         if (name == "register") return subscribe(cmd);
         if (name == "post" || name == "post-noreply") return post(name, cmd, out);
@@ -155,15 +182,15 @@ private:
         throw openair::error(openair::errc::api_misuse, "unknown command " + name);
     }
 
-    bool connect(const value& cmd, object& out) {
+    bool connect(const json& cmd, json& out) {
         openair::client_options options;
-        options.host = cmd.get_string("host", "127.0.0.1");
-        options.port = static_cast<std::uint16_t>(cmd.get_int("port", 10000));
-        options.name = cmd.get_string("name");
-        options.bind = cmd.get_bool("bind", true);
-        options.listen = cmd.get_bool("listen", true);
-        options.callback = cmd.get_bool("callback", true);
-        if (cmd.find("extensions") != nullptr) {
+        options.host = text(cmd, "host", "127.0.0.1");
+        options.port = static_cast<std::uint16_t>(integer(cmd, "port", 10000));
+        options.name = text(cmd, "name");
+        options.bind = flag(cmd, "bind", true);
+        options.listen = flag(cmd, "listen", true);
+        options.callback = flag(cmd, "callback", true);
+        if (cmd.contains("extensions")) {
             std::vector<std::string> known;
             for (const std::string& e : strings(cmd, "extensions")) {
                 if (openair::client_extensions().count(e) != 0) known.push_back(e);
@@ -173,58 +200,60 @@ private:
         if (client_) client_->close();
         client_.emplace(openair::client::connect(options));
         client_->on_wakeup([this](const openair::wakeup_event& e) { wakeups_.push_back(e); });
-        out.emplace_back("bound_port", value(client_->bound_port()));
-        out.emplace_back("legacy", value(client_->legacy()));
+        out["bound_port"] = client_->bound_port();
+        out["legacy"] = client_->legacy();
         return true;
     }
 
-    bool subscribe(const value& cmd) {
+    bool subscribe(const json& cmd) {
         std::vector<openair::trigger> triggers;
-        if (const value* list = cmd.find("triggers")) {
-            for (const value& t : list->as_array()) {
-                triggers.push_back({t.at("type").as_string(), t.get_string("from"),
-                                    static_cast<std::uint64_t>(t.get_int("after", 0)), ""});
+        if (const json* list = member(cmd, "triggers")) {
+            for (const json& t : list->get_ref<const json::array_t&>()) {
+                triggers.push_back({t.at("type").get<std::string>(), text(t, "from"),
+                                    static_cast<std::uint64_t>(integer(t, "after", 0)), ""});
             }
         }
         std::vector<openair::retrieve_spec> retrieves;
-        if (const value* list = cmd.find("retrieves")) {
-            for (const value& r : list->as_array()) retrieves.push_back(spec_from(r));
+        if (const json* list = member(cmd, "retrieves")) {
+            for (const json& r : list->get_ref<const json::array_t&>()) {
+                retrieves.push_back(spec_from(r));
+            }
         }
-        connected().subscribe(triggers, retrieves, cmd.get_bool("allowselftriggering", false));
+        connected().subscribe(triggers, retrieves, flag(cmd, "allowselftriggering", false));
         return true;
     }
 
-    bool post(const std::string& name, const value& cmd, object& out) {
+    bool post(const std::string& name, const json& cmd, json& out) {
         openair::post_options options;
-        options.content_is_xml = cmd.get_bool("xml", false);
+        options.content_is_xml = flag(cmd, "xml", false);
         options.cc = strings(cmd, "cc");
-        if (const value* p = cmd.find("priority"); p != nullptr && !p->is_null()) {
-            options.priority = p->as_double();
-        }
-        std::string to = cmd.at("to").as_string();
-        std::string type = cmd.at("type").as_string();
-        std::string content = cmd.get_string("content");
+        if (const json* p = member(cmd, "priority")) options.priority = p->get<double>();
+        std::string to = cmd.at("to").get<std::string>();
+        std::string type = cmd.at("type").get<std::string>();
+        std::string content = text(cmd, "content");
         openair::message sent = name == "post"
                                     ? connected().post(to, type, content, options)
                                     : connected().post_noreply(to, type, content, options);
-        out.emplace_back("id", value(sent.id));
+        out["id"] = sent.id;
         return true;
     }
 
-    bool retrieve(const value& cmd, object& out) {
+    bool retrieve(const json& cmd, json& out) {
         std::vector<openair::retrieve_spec> specs;
-        for (const value& s : cmd.at("specs").as_array()) specs.push_back(spec_from(s));
-        array messages;
-        for (const openair::message& m :
-             connected().retrieve(specs, cmd.get_string("to", "AIRCentral"))) {
+        for (const json& s : cmd.at("specs").get_ref<const json::array_t&>()) {
+            specs.push_back(spec_from(s));
+        }
+        json messages = json::array();
+        std::string to = text(cmd, "to", "AIRCentral");
+        for (const openair::message& m : connected().retrieve(specs, to)) {
             messages.push_back(message_json(m));
         }
-        out.emplace_back("messages", value(std::move(messages)));
+        out["messages"] = std::move(messages);
         return true;
     }
 
-    bool await_wakeup(const value& cmd, object& out) {
-        auto timeout = std::chrono::milliseconds(cmd.get_int("timeout_ms", 10000));
+    bool await_wakeup(const json& cmd, json& out) {
+        auto timeout = std::chrono::milliseconds(integer(cmd, "timeout_ms", 10000));
         auto deadline = std::chrono::steady_clock::now() + timeout;
         openair::client& c = connected();
         while (wakeups_.empty()) {
@@ -236,7 +265,7 @@ private:
             }
             c.poll(left);
         }
-        out.emplace_back("wakeup", wakeup_json(wakeups_.front()));
+        out["wakeup"] = wakeup_json(wakeups_.front());
         wakeups_.pop_front();
         return true;
     }
@@ -250,10 +279,10 @@ private:
 
 int run(const hooks& h) {
     std::ios::sync_with_stdio(false);
-    driver::write(value(object{{"event", value("ready")},
-                               {"protocol", value("openair-shim/1")},
-                               {"library", value(h.library)},
-                               {"version", value(library_version)}}));
+    driver::write(json{{"event", "ready"},
+                       {"protocol", "openair-shim/1"},
+                       {"library", h.library},
+                       {"version", openair::version}});
     driver shim(h);
     std::string pending;
     char buf[4096];

@@ -10,14 +10,13 @@
 // (src/test_faults.hpp, compiled only under OPENAIR_TEST_FAULTS). This binary is built only with
 // OPENAIR_BUILD_BROKEN_SHIM and is never installed or linked into anything else.
 #include <algorithm>
-#include <cstring>
 #include <iostream>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
 
-#include "json.hpp"
+#include "cli.hpp"
 #include "shim.hpp"
 #include "test_faults.hpp"
 
@@ -27,38 +26,30 @@
 
 namespace {
 
-using openair::json::array;
-using openair::json::object;
-using openair::json::value;
 using openair::shim::hooks;
+using openair::shim::json;
 
-/// A copy of object `v` whose member `key` is `replacement` (added when absent).
-value with(const value& v, std::string_view key, value replacement) {
-    object members = v.as_object();
-    for (auto& [name, member] : members) {
-        if (name == key) {
-            member = std::move(replacement);
-            return value(std::move(members));
-        }
-    }
-    members.emplace_back(std::string(key), std::move(replacement));
-    return value(std::move(members));
+/// A copy of object `v` whose member `key` is `replacement` (added at the end when absent).
+json with(const json& v, const std::string& key, json replacement) {
+    json copy = v;
+    copy[key] = std::move(replacement);
+    return copy;
 }
 
-bool succeeded(const value& answer) {
-    const value* ok = answer.find("ok");
-    return ok != nullptr && ok->as_bool();
+bool succeeded(const json& answer) {
+    auto ok = answer.find("ok");
+    return ok != answer.end() && ok->get<bool>();
 }
 
 /// An answer hook that rewrites the successful answers to `command` only.
-void on_answer(hooks& h, std::string command, value (*rewrite)(const value& answer)) {
-    h.answer = [command = std::move(command), rewrite](const std::string& cmd, value answer) {
+void on_answer(hooks& h, std::string command, json (*rewrite)(const json& answer)) {
+    h.answer = [command = std::move(command), rewrite](const std::string& cmd, json answer) {
         return cmd == command && succeeded(answer) ? rewrite(answer) : answer;
     };
 }
 
 /// The wakeup answer with its wakeup object rewritten by `rewrite`.
-value rewrite_wakeup(const value& answer, value (*rewrite)(const value& wakeup)) {
+json rewrite_wakeup(const json& answer, json (*rewrite)(const json& wakeup)) {
     return with(answer, "wakeup", rewrite(answer.at("wakeup")));
 }
 
@@ -66,11 +57,11 @@ value rewrite_wakeup(const value& answer, value (*rewrite)(const value& wakeup))
 
 /// Report the trigger message's from and to swapped.
 void wrong_trigger(hooks& h) {
-    on_answer(h, "await-wakeup", [](const value& answer) {
-        return rewrite_wakeup(answer, [](const value& wakeup) {
-            const value& trigger = wakeup.at("trigger");
+    on_answer(h, "await-wakeup", [](const json& answer) {
+        return rewrite_wakeup(answer, [](const json& wakeup) {
+            const json& trigger = wakeup.at("trigger");
             if (trigger.is_null()) return wakeup;
-            value swapped = with(trigger, "from", trigger.at("to"));
+            json swapped = with(trigger, "from", trigger.at("to"));
             swapped = with(swapped, "to", trigger.at("from"));
             return with(wakeup, "trigger", swapped);
         });
@@ -79,27 +70,27 @@ void wrong_trigger(hooks& h) {
 
 /// Report retrieved messages oldest first.
 void retrieve_oldest_first(hooks& h) {
-    on_answer(h, "retrieve", [](const value& answer) {
-        array messages = answer.at("messages").as_array();
+    on_answer(h, "retrieve", [](const json& answer) {
+        json messages = answer.at("messages");
         std::reverse(messages.begin(), messages.end());
-        return with(answer, "messages", value(std::move(messages)));
+        return with(answer, "messages", std::move(messages));
     });
 }
 
 /// Report a callback delivery as a listener one and the other way round.
 void path_swapped(hooks& h) {
-    on_answer(h, "await-wakeup", [](const value& answer) {
-        return rewrite_wakeup(answer, [](const value& wakeup) {
-            bool callback = wakeup.at("path").as_string() == "callback";
-            return with(wakeup, "path", value(callback ? "listener" : "callback"));
+    on_answer(h, "await-wakeup", [](const json& answer) {
+        return rewrite_wakeup(answer, [](const json& wakeup) {
+            bool callback = wakeup.at("path").get<std::string>() == "callback";
+            return with(wakeup, "path", callback ? "listener" : "callback");
         });
     });
 }
 
 /// Report a phase update as if the wakeup message itself had triggered it.
 void phase_as_trigger(hooks& h) {
-    on_answer(h, "await-wakeup", [](const value& answer) {
-        return rewrite_wakeup(answer, [](const value& wakeup) {
+    on_answer(h, "await-wakeup", [](const json& answer) {
+        return rewrite_wakeup(answer, [](const json& wakeup) {
             if (!wakeup.at("trigger").is_null()) return wakeup;
             return with(wakeup, "trigger", wakeup.at("message"));
         });
@@ -109,22 +100,22 @@ void phase_as_trigger(hooks& h) {
 /// Never report a legacy server.
 void legacy_hidden(hooks& h) {
     on_answer(h, "connect",
-              [](const value& answer) { return with(answer, "legacy", value(false)); });
+              [](const json& answer) { return with(answer, "legacy", false); });
 }
 
 /// Post XML content as text.
 void xml_as_text(hooks& h) {
-    h.command = [](const std::string& cmd, value command) {
+    h.command = [](const std::string& cmd, json command) {
         if (cmd != "post" && cmd != "post-noreply") return command;
-        return with(command, "xml", value(false));
+        return with(command, "xml", false);
     };
 }
 
 /// Report every failure as REQUEST_FAILED, whatever the library's error was.
 void errors_as_request_failed(hooks& h) {
-    h.answer = [](const std::string&, value answer) {
+    h.answer = [](const std::string&, json answer) {
         if (succeeded(answer)) return answer;
-        value error = with(answer.at("error"), "code", value("REQUEST_FAILED"));
+        json error = with(answer.at("error"), "code", "REQUEST_FAILED");
         return with(answer, "error", std::move(error));
     };
 }
@@ -139,37 +130,39 @@ const std::pair<std::string_view, void (*)(hooks&)> shim_breaks[] = {
     {"errors-as-request-failed", errors_as_request_failed},
 };
 
-std::vector<std::string_view> all_names() {
-    std::vector<std::string_view> names;
-    for (const auto& entry : shim_breaks) names.push_back(entry.first);
-    for (std::string_view name : openair::detail::faults::names()) names.push_back(name);
+std::vector<std::string> all_names() {
+    std::vector<std::string> names;
+    for (const auto& entry : shim_breaks) names.emplace_back(entry.first);
+    for (std::string_view name : openair::detail::faults::names()) names.emplace_back(name);
     return names;
-}
-
-int usage(const char* program) {
-    std::cerr << "usage: " << program << " --break NAME | --list\nNAME is one of:";
-    for (std::string_view name : all_names()) std::cerr << ' ' << name;
-    std::cerr << std::endl;
-    return 2;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc == 2 && std::strcmp(argv[1], "--list") == 0) {
-        for (std::string_view name : all_names()) std::cout << name << '\n';
+    std::string name;
+    bool list = false;
+    CLI::App app{"The conformance shim with one behaviour broken on purpose (tests only).",
+                 "openair-shim-broken"};
+    auto* broken = app.add_option("--break", name, "Run the shim with NAME broken")
+                       ->option_text("NAME")
+                       ->check(CLI::IsMember(all_names()));
+    app.add_flag("--list", list, "Print every NAME, one a line")->excludes(broken);
+    app.require_option(1);
+    if (auto status = openair_cli::parse(app, argc, argv)) return *status;
+
+    if (list) {
+        for (const std::string& n : all_names()) std::cout << n << '\n';
         return 0;
     }
-    if (argc != 3 || std::strcmp(argv[1], "--break") != 0) return usage(argv[0]);
-    std::string_view name = argv[2];
     hooks h;
-    h.library = "openair-cpp-broken-" + std::string(name);
+    h.library = "openair-cpp-broken-" + name;
     auto found = std::find_if(std::begin(shim_breaks), std::end(shim_breaks),
-                              [name](const auto& entry) { return entry.first == name; });
+                              [&name](const auto& entry) { return entry.first == name; });
     if (found != std::end(shim_breaks)) {
         found->second(h);
-    } else if (!openair::detail::faults::select(name)) {
-        return usage(argv[0]);
+    } else {
+        (void)openair::detail::faults::select(name);  // a member of all_names(): always found
     }
     return openair::shim::run(h);
 }

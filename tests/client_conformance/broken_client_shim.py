@@ -105,10 +105,12 @@ def crash_on_malformed() -> None:
     """Exit the process when a delivery cannot be parsed."""
     original = listener._answer
 
-    async def answer(conn: Any, event: Any, handler: Any, received_ns: int) -> bytes | None:
+    async def answer(
+        conn: Any, event: Any, handler: Any, received_ns: int, *rest: Any
+    ) -> bytes | None:
         if isinstance(event, Invalid):
             os._exit(3)
-        return await original(conn, event, handler, received_ns)
+        return await original(conn, event, handler, received_ns, *rest)
 
     listener._answer = answer
 

@@ -119,7 +119,19 @@ public:
         std::string name;
         try {
             cmd = json::parse(line);
-            seq = integer(cmd, "seq", 0);
+        } catch (const json::exception& e) {
+            std::cerr << "openair-shim: not a JSON command: " << e.what() << std::endl;
+            return true;  // OA-GEN-5: nothing on stdout, it cannot be paired with a command
+        }
+        const json* raw_seq = cmd.is_object() ? member(cmd, "seq") : nullptr;
+        if (raw_seq == nullptr || !raw_seq->is_number_integer() || raw_seq->get<std::int64_t>() < 0) {
+            std::cerr << "openair-shim: a command must be a JSON object with a non-negative "
+                         "integer seq: "
+                      << line << std::endl;
+            return true;  // OA-GEN-5
+        }
+        try {
+            seq = raw_seq->get<std::int64_t>();
             name = cmd.at("cmd").get<std::string>();
             if (hooks_.command) cmd = hooks_.command(name, cmd);
             json fields = json::object();

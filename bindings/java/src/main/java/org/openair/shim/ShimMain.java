@@ -97,6 +97,11 @@ public final class ShimMain {
                     System.err.println("shim: a command must be a JSON object");
                     continue;
                 }
+                if (!(map.get("seq") instanceof Long seq) || seq < 0) {
+                    // OA-GEN-5: it cannot be paired with a command, so nothing goes to stdout
+                    System.err.println("shim: a command needs a non-negative integer seq: " + line);
+                    continue;
+                }
                 @SuppressWarnings("unchecked")
                 Map<String, Object> cmd = (Map<String, Object>) map;
                 write(handle(cmd));

@@ -2,44 +2,125 @@
 
 Commands live beside the code they wrap: the client commands in ``openair.client.cli_client``,
 ``serve`` in ``openair.server.cli_serve``, ``conform`` in ``openair_conformance.cli``. This module
-only assembles them, importing lazily so that ``openair --help`` stays fast.
+only names them; a command's module is imported when the command runs (or when ``--help`` lists
+it), so ``openair --version`` imports nothing else and a command whose optional dependency is
+missing says which extra to install instead of failing with a traceback.
 """
 
 from __future__ import annotations
 
+import importlib
+from typing import Any, NoReturn
+
 import click
 
-from openair.client.cli_client import COMMANDS
+__all__ = ["OPTIONAL", "main", "missing_extra"]
+
+#: Command name -> "module:attribute".
+_COMMANDS = {
+    "serve": "openair.server.cli_serve:serve",
+    "post": "openair.client.cli_client:post",
+    "watch": "openair.client.cli_client:watch",
+    "retrieve": "openair.client.cli_client:retrieve",
+    "ping": "openair.client.cli_client:ping",
+    "conform": "openair_conformance.cli:conform",
+    "conform-client": "openair_conformance.client_cli:conform_client",
+    "conform-worldmodel": "openair_conformance.worldmodel.cli:conform_worldmodel",
+    "ontology": "openair.ontology.cli_ontology:ontology",
+    "stream": "openair.client.cli_stream:stream",
+}
+
+#: Optional top-level packages -> the extra of openair-kit that installs them (pyproject.toml).
+OPTIONAL = {"hypothesis": "fuzz", "xmlschema": "worldmodel", "selenium": "browser"}
+
+#: Exit code of a command whose optional dependency is not installed (a usage error).
+EXIT_MISSING = 2
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+def missing_extra(exc: ModuleNotFoundError) -> str | None:
+    """Return the extra that provides the missing module of `exc`, or None (a real error)."""
+    top = (exc.name or "").partition(".")[0]
+    return OPTIONAL.get(top)
+
+
+def _unavailable(name: str, package: str, extra: str) -> click.Command:
+    """A stand-in for a command whose optional dependency is missing: one line, exit 2."""
+
+    def run() -> NoReturn:
+        click.echo(
+            f"openair {name}: needs {package}, which is not installed: "
+            f"pip install 'openair-kit[{extra}]'",
+            err=True,
+        )
+        raise click.exceptions.Exit(EXIT_MISSING)
+
+    return click.Command(
+        name,
+        callback=run,
+        help=f"(not available: pip install 'openair-kit[{extra}]')",
+        context_settings={"ignore_unknown_options": True, "allow_extra_args": True},
+        add_help_option=False,
+    )
+
+
+def _load(name: str) -> click.Command | None:
+    """Import the command `name` (a stand-in when an optional dependency is missing)."""
+    target = _COMMANDS.get(name)
+    if target is None:
+        return None
+    module_name, _, attr = target.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        extra = missing_extra(exc)
+        if extra is None:
+            raise
+        return _unavailable(name, (exc.name or "").partition(".")[0], extra)
+    command = getattr(module, attr)
+    assert isinstance(command, click.Command)
+    return command
+
+
+class _LazyCommands(dict[str, click.Command]):
+    """The group's `commands`: each one imported when it is first looked up."""
+
+    def __missing__(self, name: str) -> click.Command:
+        command = _load(name)
+        if command is None:
+            raise KeyError(name)
+        self[name] = command
+        return command
+
+
+class _LazyGroup(click.Group):
+    """A group whose commands are imported on first use."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.commands = _LazyCommands()
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(_COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        try:
+            return self.commands[cmd_name]
+        except KeyError:
+            return None
+
+
+@click.group(cls=_LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="openair-kit")
 def main() -> None:
     """OpenAIR kit: reference whiteboard server, client tools and conformance suite.
 
     \b
     Exit codes shared by every command: 0 success, 1 the operation failed (the server refused,
-    a case failed), 2 usage error, 3 could not connect. Each command's --help says more.
+    a case failed), 2 usage error (also: an optional part is not installed; the message names
+    the extra, e.g. pip install 'openair-kit[fuzz]'), 3 could not connect or the peer does not
+    speak OpenAIR. Each command's --help says more.
     """
 
 
-def _register() -> None:
-    """Add every command to the group (called once at import)."""
-    from openair.client.cli_stream import stream
-    from openair.ontology.cli_ontology import ontology
-    from openair.server.cli_serve import serve
-    from openair_conformance.cli import conform
-    from openair_conformance.client_cli import conform_client
-    from openair_conformance.worldmodel.cli import conform_worldmodel
-
-    main.add_command(serve)
-    for command in COMMANDS:
-        main.add_command(command)
-    main.add_command(conform)
-    main.add_command(conform_client)
-    main.add_command(conform_worldmodel)
-    main.add_command(ontology)
-    main.add_command(stream)
-
-
-_register()
+if __name__ == "__main__":
+    main()

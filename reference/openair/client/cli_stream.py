@@ -8,7 +8,7 @@ with the connection option and exit codes of the other client commands (``cli_cl
   1  the server answered with a failure reply (unknown stream, refused sample), or a reply
      did not come in time
   2  usage error (bad option, missing file)
-  3  cannot connect to the server, or the connection was lost
+  3  cannot connect to the server, the connection was lost, or the peer does not speak OpenAIR
 """
 
 from __future__ import annotations

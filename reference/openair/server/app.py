@@ -20,21 +20,34 @@ import logging
 import socket
 import time
 from collections.abc import Coroutine
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import openair
 from openair.framing import FrameTag
 from openair.message import Message
 from openair.server.commands import declared_extensions
-from openair.server.config import ServerConfig, ServerLimits, default_config, load_config
+from openair.server.config import (
+    ConfigError,
+    ServerConfig,
+    ServerLimits,
+    default_config,
+    load_config,
+)
 from openair.server.delivery import DeliveryOptions, Dispatcher
 from openair.server.protocol import FlowLimits, Role, ServerConnection
 from openair.server.pusher import Pusher
 from openair.server.router import ModuleInfo, Outcome, Router, SamplePush
 from openair.server.store import HistoryStore, open_store
 
-__all__ = ["DEFAULT_EXTENSIONS", "MonitorHook", "Server", "ServerOptions", "start_server"]
+__all__ = [
+    "DEFAULT_EXTENSIONS",
+    "DEFAULT_PORT",
+    "MonitorHook",
+    "Server",
+    "ServerOptions",
+    "start_server",
+]
 
 log = logging.getLogger("openair.server")
 
@@ -42,7 +55,9 @@ log = logging.getLogger("openair.server")
 DEFAULT_EXTENSIONS = frozenset({"noreply", "pipelining", "usec", "gettime", "typed-streams"})
 _TICK_S = 0.1  # OA-XSTREAM-7: Idle alarms are checked at least this often
 _BINDS = frozenset({"BIND", "BIND_NOLISTEN"})
+DEFAULT_PORT = 10000
 _WILDCARD_HOSTS = frozenset({"", "0.0.0.0", "::"})
+_STAGE_S = 2.0  # the longest one shutdown stage after the grace period may take
 
 
 class MonitorHook(Protocol):
@@ -60,7 +75,9 @@ class ServerOptions:
     """How to run a server: where to listen, what to serve, and its limits and timing."""
 
     host: str = "127.0.0.1"
-    port: int = 10000
+    # None: the configuration's <global><port>, else DEFAULT_PORT (OA-CONF-7: a port given
+    # here, as on the command line, wins over the configuration's).
+    port: int | None = 10000
     config: ServerConfig | None = None
     config_path: str | None = None
     store: str = "memory"
@@ -102,7 +119,7 @@ class Server:
         self.config = config
         self.store = store
         self.host = options.host
-        self.port = options.port
+        self.port = _main_port(options.port, config)
         self.limits = options.limits
         self.flow = options.flow
         wanted = options.extensions | {"monitor"} if options.monitor else options.extensions
@@ -335,7 +352,7 @@ class Server:
         self._listener = await loop.create_server(
             self._protocol,
             self.options.host,
-            self.options.port,
+            self.port,
             start_serving=False,
             backlog=self.options.backlog,
             reuse_address=True,
@@ -415,12 +432,16 @@ class Server:
         except TimeoutError:
             log.warning("event=shutdown phase=grace_over pending=%d", self.dispatcher.pending)
         self._final = True
+        # Every stage below is bounded, so that stop() always finishes (issue #18).
         abandoned = await self.dispatcher.stop()  # counted DELIVERY_FAILED
         if self.monitor is not None:
-            await self.monitor.close()
+            await _bounded("monitor", self.monitor.close(), _STAGE_S)
         await self._close_connections()
         if self._tasks:
-            await asyncio.gather(*self._tasks, return_exceptions=True)
+            _, stuck = await asyncio.wait(list(self._tasks), timeout=_STAGE_S)
+            for task in stuck:
+                task.cancel()
+                log.warning("event=shutdown phase=task_stuck task=%s", task.get_name())
         self.store.close()
         log.info("event=shutdown phase=done abandoned=%d", abandoned)
         if not self._done.done():
@@ -444,9 +465,32 @@ class Server:
                 await asyncio.wait_for(self._listener.wait_closed(), 1.0)
 
 
+async def _bounded(stage: str, coro: Coroutine[object, object, None], limit: float) -> None:
+    """Await one shutdown stage for at most `limit` seconds; log it when it overruns or fails."""
+    try:
+        async with asyncio.timeout(limit):
+            await coro
+    except TimeoutError:
+        log.warning("event=shutdown phase=%s_timeout", stage)
+    except Exception as exc:  # a failing stage must not stop the rest of the shutdown
+        log.warning("event=shutdown phase=%s_error detail=%r", stage, str(exc))
+
+
 def _extensions(wanted: frozenset[str], store: HistoryStore) -> frozenset[str]:
     """Advertise `durable` only with a durable store (OA-WB-9)."""
     return wanted | {"durable"} if store.durable else wanted - {"durable"}
+
+
+def _main_port(given: int | None, config: ServerConfig) -> int:
+    """The port to listen on: the one given, else the configuration's (OA-CONF-7), else 10000."""
+    if given is not None:
+        return given
+    configured = config.port
+    if configured is None:
+        return DEFAULT_PORT
+    if not 0 <= configured <= 65535:
+        raise ConfigError(f"<global><port>: not a port number: {configured}")
+    return configured
 
 
 def _config(options: ServerOptions) -> ServerConfig:
@@ -461,6 +505,7 @@ async def start_server(options: ServerOptions | None = None) -> Server:
     """Start a server and return it listening (raises ConfigError, StoreSpecError, OSError)."""
     options = options or ServerOptions()
     config = _config(options)
+    options = replace(options, port=_main_port(options.port, config))
     store = open_store(options.store)
     server = Server(options, config, store)
     try:

@@ -6,8 +6,10 @@ import asyncio
 import contextlib
 import gc
 import logging
+import os
 import signal
 import sys
+import threading
 
 import click
 
@@ -17,7 +19,13 @@ from openair.server.store import StoreSpecError
 
 __all__ = ["serve"]
 
+log = logging.getLogger("openair.server")
+
 _LEVELS = ("debug", "info", "warning", "error")
+#: A forced exit (a second SIGINT/SIGTERM, or a shutdown that overran) returns 128 + signal.
+EXIT_FORCED_BASE = 128
+# The stop's own stages are bounded (app.py); past the grace period plus this, force the exit.
+_STOP_MARGIN_S = 15.0
 _GC_GEN0 = 50_000  # allocations between gen-0 collections
 
 
@@ -38,28 +46,62 @@ def _tune_gc() -> None:
     gc.set_threshold(_GC_GEN0, *gc.get_threshold()[1:])
 
 
+class _Stopper:
+    """The SIGINT/SIGTERM handler: the first signal stops gracefully, a second one forces exit.
+
+    Plain `signal.signal` handlers, not the event loop's: they run even when the loop is busy.
+    The first signal also arms a watchdog thread, so the process ends even if a graceful stop
+    never finishes; a forced exit returns 128 + the signal's number (130, 143).
+    """
+
+    def __init__(self, loop: asyncio.AbstractEventLoop, server: Server, bound_s: float) -> None:
+        self._loop = loop
+        self._server = server
+        self._bound_s = bound_s
+        self._first: int | None = None
+        self._task: asyncio.Task[None] | None = None
+
+    def install(self) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self._on_signal)
+
+    def _on_signal(self, signum: int, frame: object) -> None:
+        if self._first is not None:
+            _force_exit(signum, "a second signal")
+            return
+        self._first = signum
+        watchdog = threading.Timer(self._bound_s, _force_exit, (signum, "the shutdown overran"))
+        watchdog.daemon = True
+        watchdog.start()
+        self._loop.call_soon_threadsafe(self._begin)
+
+    def _begin(self) -> None:
+        self._task = self._loop.create_task(self._server.stop())
+
+
+def _force_exit(signum: int, why: str) -> None:
+    """End the process at once: the graceful shutdown was interrupted or did not finish."""
+    with contextlib.suppress(Exception):
+        log.warning("event=shutdown phase=forced reason=%r", why)
+        sys.stdout.flush()
+        sys.stderr.flush()
+    os._exit(EXIT_FORCED_BASE + signum)
+
+
 async def _run(options: ServerOptions) -> None:
     """Start, announce readiness on stdout, and stop on SIGINT or SIGTERM."""
     server = await start_server(options)
     _tune_gc()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError):  # not on every platform
-            loop.add_signal_handler(sig, lambda: loop.create_task(server.stop()))
+    _Stopper(asyncio.get_running_loop(), server, options.grace_s + _STOP_MARGIN_S).install()
     boards = ", ".join(server.whiteboards)
     click.echo(f"listening on {server.host}:{server.port} (whiteboards: {boards})")
     if server.monitor is not None:
         click.echo(_monitor_line(server))
     sys.stdout.flush()
-    try:
-        await server.serve_forever()
-    finally:
-        # The loop is about to close: a late second signal (a supervisor repeating SIGTERM)
-        # must not hit asyncio's wakeup fd; the stop is already done, so ignore it.
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            with contextlib.suppress(NotImplementedError, ValueError):
-                loop.remove_signal_handler(sig)
-                signal.signal(sig, signal.SIG_IGN)
+    await server.serve_forever()
+    # Stopped: a late signal (a supervisor repeating SIGTERM) has nothing left to force.
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)
 
 
 def _monitor_line(server: Server) -> str:
@@ -77,10 +119,10 @@ def _monitor_line(server: Server) -> str:
 @click.option("--host", default="127.0.0.1", show_default=True, help="Address to listen on.")
 @click.option(
     "--port",
-    default=10000,
-    show_default=True,
+    default=None,
     type=click.IntRange(0, 65535),
-    help="Main port (0: any free port; the line printed at start names it).",
+    help="Main port (0: any free port; the line printed at start names it). Default: the "
+    "psySpec's <global><port>, else 10000.",
 )
 @click.option(
     "--config",
@@ -140,7 +182,7 @@ def _monitor_line(server: Server) -> str:
 )
 def serve(
     host: str,
-    port: int,
+    port: int | None,
     config_path: str | None,
     store: str,
     log_level: str,
@@ -157,13 +199,17 @@ def serve(
     then `monitor on URL… (read-only|posting allowed)` unless --no-monitor: the web monitor
     answers HTTP on the main port (and on --http-port when given). Log lines
     (`event=NAME key=value …`) go to stderr. On a signal it shuts down gracefully: new requests
-    get SHUTTING_DOWN, decided deliveries are attempted for up to 5 s, the store is closed.
+    get SHUTTING_DOWN, decided deliveries are attempted for up to 5 s, the store is closed. A
+    second SIGINT or SIGTERM ends it at once, and so does a shutdown still running 20 s after
+    the first signal.
 
     \b
     Exit codes:
-      0  stopped by SIGINT or SIGTERM after a graceful shutdown
-      1  could not listen (address in use, permission) or could not open the store
-      2  usage error, or an invalid configuration file (the message names file and line)
+      0    stopped by SIGINT or SIGTERM after a graceful shutdown
+      1    could not listen (address in use, permission)
+      2    usage error, an invalid configuration file (the message names file and line), or a
+           store that cannot be opened (no such directory, a directory, not a database)
+      130  (SIGINT) or 143 (SIGTERM): 128 + the signal, when the shutdown was forced
     """
     logging.basicConfig(
         level=log_level.upper(), stream=sys.stderr, format="%(asctime)s %(levelname)s %(message)s"
@@ -183,14 +229,11 @@ def serve(
     )
     try:
         asyncio.run(_run(options))
-    except ConfigError as exc:
-        click.echo(f"openair serve: {exc}", err=True)
-        sys.exit(2)
-    except StoreSpecError as exc:
+    except (ConfigError, StoreSpecError) as exc:
         click.echo(f"openair serve: {exc}", err=True)
         sys.exit(2)
     except OSError as exc:
         click.echo(f"openair serve: cannot start: {exc}", err=True)
         sys.exit(1)
-    except KeyboardInterrupt:  # a second Ctrl-C during shutdown
-        sys.exit(0)
+    except KeyboardInterrupt:  # Ctrl-C while starting, before the handlers are installed
+        sys.exit(EXIT_FORCED_BASE + signal.SIGINT)

@@ -3,13 +3,14 @@
 Each module has a bounded `DeliveryQueue` (OA-DELIV-8/9) and a task that takes eligible items in
 priority order (OA-PRIO-1/2) and sends them over the module's callback connection when it has
 one, else over a connection the server opens to the module's listening port and reuses
-(OA-DELIV-1). A legacy module gets one delivery at a time, the next only after the
-acknowledgement of the previous one; a module that declared `pipelining` gets up to
-`max-in-flight` (OA-DELIV-5). A delivery that fails (no connection, a closed connection, no
-acknowledgement within the delivery deadline) is retried at most twice and then abandoned and
-counted (OA-DELIV-7, OA-DELIV-11); a reply other than the acknowledgement is counted and not
-retried. Every module has its own task, queue and connection, so a slow or dead module never
-delays another module or the acknowledgement of a post (OA-DELIV-6).
+(OA-DELIV-1, OA-DELIV-13), one connection at a time (OA-DELIV-12). A legacy module gets one
+delivery at a time, the next only after the acknowledgement of the previous one; a module that
+declared `pipelining` gets up to `max-in-flight` (OA-DELIV-5). A delivery that fails (no
+connection, a closed connection, no acknowledgement within the delivery deadline) is retried at
+most twice and then abandoned and counted (OA-DELIV-7, OA-DELIV-11); a reply other than the
+acknowledgement is counted and not retried. Every module has its own task, queue and
+connection, so a slow or dead module never delays another module or the acknowledgement of a
+post (OA-DELIV-6).
 """
 
 from __future__ import annotations
@@ -36,6 +37,9 @@ from openair.server.streamservice import push_frame, push_message
 __all__ = ["DeliveryHost", "DeliveryOptions", "Dispatcher", "ModuleCounters"]
 
 log = logging.getLogger("openair.server")
+
+#: The longest stop() waits for a module's cancelled tasks to end (shutdown must finish).
+_STOP_WAIT_S = 1.0
 
 #: The acknowledgement each kind of delivery expects (OA-DELIV-4).
 _ACK_FOR = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
@@ -188,9 +192,7 @@ class ModuleDelivery:
                 attempt = await self._next()
             self._sending = 1
             try:
-                conn = self._callback_path()
-                if conn is None:
-                    conn = await self._path()
+                conn = await self._choose()
                 if conn is None:
                     self._failed(attempt, "no connection to the module")
                     continue
@@ -343,13 +345,39 @@ class ModuleDelivery:
                 return attempt
             due = self.queue.next_due()
             timeout = None if due is None else max(due - time.time_ns(), 0) / 1e9
+            # asyncio.timeout, not wait_for: on 3.11 wait_for returns the wait's result when a
+            # cancel arrives in the same turn as the wake-up, and the task (cancelled by stop())
+            # would then wait here again for ever, holding the shutdown.
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._wake.wait(), timeout)
+                async with asyncio.timeout(timeout):
+                    await self._wake.wait()
 
     def _has_path(self) -> bool:
         """Whether the module can be reached at all (else its deliveries wait, bounded)."""
         info = self._d.host.module_info(self.name)
         return info is not None and (info.callback is not None or info.port > 0)
+
+    async def _choose(self) -> ServerConnection | None:
+        """Pick the connection for the next delivery (OA-DELIV-1, OA-DELIV-12, OA-DELIV-13).
+
+        The callback connection when the module has one, else the listening port (so a port that
+        cannot be reached never stops deliveries a callback connection can take); and one
+        connection at a time: a switch waits until the other connection has nothing unanswered.
+        """
+        while True:
+            conn = self._callback_path()
+            if conn is None:
+                conn = await self._path()
+            if conn is None or not self._busy_elsewhere(conn):
+                return conn
+            self._flush()
+            while self._busy_elsewhere(conn):  # OA-DELIV-12: keep the order across paths
+                self._room.clear()
+                await self._room.wait()
+
+    def _busy_elsewhere(self, conn: ServerConnection) -> bool:
+        """Whether a delivery sent on another connection still awaits its acknowledgement."""
+        return any(not entry.settled and entry.conn is not conn for entry in self._sent)
 
     def _callback_path(self) -> ServerConnection | None:
         """Return the module's open callback connection, if it has one (OA-DELIV-1)."""
@@ -360,14 +388,10 @@ class ModuleDelivery:
         return conn if conn is not None and not conn.is_closing else None
 
     async def _path(self) -> ServerConnection | None:
-        """Return the callback connection, else a connection to the listening port (OA-DELIV-1)."""
+        """Return a connection to the module's listening port (OA-DELIV-1), or None."""
         info = self._d.host.module_info(self.name)
         if info is None:
             return None
-        if info.callback is not None:
-            conn = self._d.host.connection(info.callback)
-            if conn is not None and not conn.is_closing:
-                return conn
         if info.port <= 0:
             return None
         address = info.address or self._primary_host(info)
@@ -377,8 +401,8 @@ class ModuleDelivery:
         if out is not None:
             out.close()  # the module bound a new port (takeover, OA-SESS-6)
         try:
-            connect = self._d.host.connect(self.name, address, info.port)
-            out = await asyncio.wait_for(connect, self._d.options.connect_timeout_s)
+            async with asyncio.timeout(self._d.options.connect_timeout_s):  # cancels cleanly
+                out = await self._d.host.connect(self.name, address, info.port)
         except (OSError, TimeoutError) as exc:
             log.info(
                 "event=connect_failed module=%s address=%s port=%d detail=%r",
@@ -445,7 +469,10 @@ class ModuleDelivery:
         self._sent.clear()
         for task in tasks:
             task.cancel()
-        await asyncio.gather(*tasks, return_exceptions=True)
+        # Bounded: a task that does not end on its cancel must not hold the shutdown.
+        _, stuck = await asyncio.wait(tasks, timeout=_STOP_WAIT_S)
+        for task in stuck:
+            log.warning("event=task_stuck module=%s task=%s", self.name, task.get_name())
         self.queue.clear()
         self._retry.clear()
         if self._outbound is not None:
@@ -543,8 +570,9 @@ class Dispatcher:
     async def stop(self) -> int:
         """Stop every task; count what was left as DELIVERY_FAILED (OA-SESS-24)."""
         left = 0
-        for name, md in list(self.modules.items()):
-            n = await md.stop()
+        modules = list(self.modules.items())
+        counts = await asyncio.gather(*(md.stop() for _, md in modules))  # each one bounded
+        for (name, md), n in zip(modules, counts, strict=True):
             if n:
                 md.counters.failed += n
                 self.host.dropped(name, n, "DELIVERY_FAILED")

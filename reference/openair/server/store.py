@@ -48,7 +48,7 @@ class HistoryStore(Protocol):
 
 
 class StoreSpecError(ValueError):
-    """A store specification that `open_store` does not understand."""
+    """A store specification that `open_store` does not understand, or a store it cannot open."""
 
 
 class MemoryStore:
@@ -119,6 +119,8 @@ class SqliteStore:
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=NORMAL")
             self._db.execute(_SCHEMA)
+            # A file that has a `messages` table of another shape fails here, not at load.
+            self._db.execute("SELECT whiteboard, wbid, xml, binary FROM messages LIMIT 1")
         except sqlite3.DatabaseError:
             self._db.close()
             raise
@@ -196,5 +198,18 @@ def open_store(spec: str) -> HistoryStore:
         return MemoryStore()
     kind, sep, path = spec.partition(":")
     if kind == "sqlite" and sep and path:
-        return SqliteStore(path)
+        return _open_sqlite(Path(path))
     raise StoreSpecError(f"unknown store {spec!r}: use 'memory' or 'sqlite:PATH'")
+
+
+def _open_sqlite(path: Path) -> SqliteStore:
+    """Open a SQLite store, saying in one line why it cannot be opened (StoreSpecError)."""
+    if path.is_dir():
+        raise StoreSpecError(f"cannot open the store {str(path)!r}: it is a directory")
+    if not path.parent.is_dir():
+        where = str(path.parent)
+        raise StoreSpecError(f"cannot open the store {str(path)!r}: no directory {where!r}")
+    try:
+        return SqliteStore(path)
+    except sqlite3.Error as exc:  # not a database, a locked or unreadable file, …
+        raise StoreSpecError(f"cannot open the store {str(path)!r}: {exc}") from None

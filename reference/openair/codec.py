@@ -296,8 +296,11 @@ def _read_extra(el: etree._Element) -> Slot:
 
 def _read_content(el: etree._Element, fields: dict[str, Any]) -> None:
     """Read `content`: embedded XML under language="xml" (any case), text otherwise (OA-MSG-10)."""
-    language = _attributes(el).get("language", "")
+    attrs = _attributes(el)
+    language = attrs.get("language", "")
     fields["language"] = language
+    if version := attrs.get("version", ""):  # OA-MSG-22: kept, never dropped
+        fields["content_version"] = version
     if language.lower() == "xml":
         # Stray text is kept, not refused: the content is judged by the command that reads it
         # (an AIR.Retrieve of `garbage` is RETRIEVE_INVALID, OA-RET-10), and a relay passes it on.
@@ -553,12 +556,16 @@ def _content_element(msg: Message) -> etree._Element:
     is_xml_language = language.lower() == "xml"
     if msg.content_is_xml:
         el.set("language", language if is_xml_language else "xml")
+        if msg.content_version:  # OA-MSG-22: after language, only when not empty
+            el.set("version", msg.content_version)
         if msg.content:
             _graft(el, msg.content, "content")
         return el
     if is_xml_language:
         raise ApiMisuseError(f"text content cannot be labelled language={language!r}")
     el.set("language", language)
+    if msg.content_version:  # OA-MSG-22
+        el.set("version", msg.content_version)
     _set_text(el, msg.content)
     return el
 

@@ -49,6 +49,8 @@ class Trigger:
     whiteboard: str = ANY_WHITEBOARD
     after_ms: int = 0
     alias: str = ""
+    # OA-TRIG-5 (extension `qos`): an alarm trigger fires only for priorities at most this.
+    max_priority: float | None = None
 
 
 class ContentMatch(enum.Enum):

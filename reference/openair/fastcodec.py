@@ -331,6 +331,8 @@ def _special_slot(name: str, attrs: dict[str, str], body: str, fields: dict[str,
     if name == "content":
         language = attrs.get("language", "")
         fields["language"] = language
+        if version := attrs.get("version", ""):  # OA-MSG-22
+            fields["content_version"] = version
         if language.lower() == "xml":  # text only: the lxml path keeps it escaped
             fields["content"] = escape_text(body) if body.strip(_WS) else ""
             fields["content_is_xml"] = True
@@ -540,7 +542,7 @@ def _encodable(msg: Message, xml_content: bool) -> bool:
         if slot.is_xml or not _EXTRA_NAME.fullmatch(name) or name.lower() in _KNOWN_LOWER:
             return False
     texts = [msg.type, msg.id, msg.sender, msg.to, msg.cc, msg.stored, msg.isresponse]
-    texts += (msg.comment, msg.netprotocol, msg.language)
+    texts += (msg.comment, msg.netprotocol, msg.language, msg.content_version)
     if not msg.content_is_xml:
         texts.append(msg.content)
     texts.extend(slot.value for slot in msg.extras)
@@ -573,6 +575,8 @@ def fast_encode_str(msg: Message, *, xml_content: bool = False) -> str | None:
     ]
     _middle(msg, parts)
     language = escape_attr(msg.language if not msg.content_is_xml else _xml_language(msg))
+    if msg.content_version:  # OA-MSG-22: after language
+        language += f'" version="{escape_attr(msg.content_version)}'
     body = msg.content if msg.content_is_xml else escape_text(msg.content)
     if body:
         parts.append(f'<content language="{language}">{body}</content>')

@@ -92,6 +92,7 @@ class Message:
     language: str = ""
     content: str = ""
     content_is_xml: bool = False
+    content_version: str = ""  # the `version` attribute of `content` (OA-MSG-22)
     comment: str = ""
     history: str = ""
     wbid: int | None = None

@@ -33,6 +33,7 @@ from openair.errors import (
     RegistrationInvalidError,
     RetrieveInvalidError,
 )
+from openair.message import MAX_PRIORITY
 from openair.objects import (
     MAX_INT64,
     attr,
@@ -67,6 +68,9 @@ __all__ = [
 DEFAULT_MAX_TRIGGERS = 1024  # OA-LIM-6
 _ANY_NAMES = frozenset({"", "any", "*"})  # OA-TRIG-2
 _STREAM_KINDS = ("inputstream", "outputstream", "stream")
+# Form 5 (OA-REG-16): bare stream elements, optionally beside the groups of form 1.
+_FORM5_STREAMS = frozenset({*_STREAM_KINDS, "streams"})
+_FORM5 = _FORM5_STREAMS | {"triggers", "retrieves"}
 _DECIMAL = re.compile(r"\s*[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)\s*")
 _FORM2_PHASE = "Default"  # the hidden phase of form 2, named as Psyclone names it (spec 8.2)
 _FORM14_PHASE = "Default Phase"  # the phase of forms 1 and 4
@@ -173,7 +177,13 @@ class _Reader:
         if after is None or not 0 <= after <= MAX_INT64:  # OA-REG-8
             raise RegistrationInvalidError(f"trigger after={delay!r} is not a non-negative integer")
         alias = attr(el, "alias") or attr(el, "name") or ""
-        return Trigger(pattern=pattern, whiteboard=whiteboard, after_ms=after, alias=alias)
+        return Trigger(
+            pattern=pattern,
+            whiteboard=whiteboard,
+            after_ms=after,
+            alias=alias,
+            max_priority=_max_priority(attr(el, "maxpriority")),
+        )
 
     def retrieve(self, el: etree._Element, group_from: str) -> RetrieveSpec:
         try:
@@ -295,6 +305,15 @@ class _Reader:
             allow_self_triggering=_yes(flag),
         )
 
+    def bare_streams(self, module: str, roots: Sequence[etree._Element]) -> Registration:
+        """Read form 5: stream elements as roots, beside form 1's groups (OA-REG-16)."""
+        parts = _Parts()
+        for root in roots:
+            self.collect(root, parts)
+        return Registration(
+            module=module, form=RegistrationForm.BARE, phases=(parts.phase(_FORM14_PHASE),)
+        )
+
     def bare(
         self, module: str, triggers: etree._Element, retrieves: etree._Element | None
     ) -> Registration:
@@ -306,6 +325,16 @@ class _Reader:
         return Registration(
             module=module, form=RegistrationForm.BARE, phases=(parts.phase(_FORM14_PHASE),)
         )
+
+
+def _max_priority(text: str | None) -> float | None:
+    """Read an alarm trigger's `maxpriority`, a decimal 0.0-6.999 (OA-TRIG-5)."""
+    if text is None:
+        return None
+    value = text.strip()
+    if not _DECIMAL.fullmatch(value) or not 0.0 <= float(value) <= MAX_PRIORITY:
+        raise RegistrationInvalidError(f"trigger maxpriority={text!r} is not 0.0-6.999")
+    return float(value)
 
 
 def _yes(value: str | None) -> bool:
@@ -357,6 +386,9 @@ def parse_registration(
         raise RegistrationInvalidError("AIR.Subscribe without a from")  # OA-REG-8
     roots = parse_content(content, RegistrationInvalidError)
     names = [local_name(r) for r in roots]
+    if _FORM5_STREAMS.intersection(names) and _FORM5.issuperset(names):  # OA-REG-16
+        reader = _Reader(strict=True, max_triggers=max_triggers)
+        return reader.bare_streams(module, roots)
     if names == ["triggers", "retrieves"]:  # OA-REG-2: two sibling roots
         reader = _Reader(strict=True, max_triggers=max_triggers)
         return reader.bare(module, roots[0], roots[1])
@@ -398,6 +430,8 @@ def _trigger_element(t: Trigger, *, echo: bool = False) -> etree._Element:
             attrs.append(("after", str(t.after_ms)))
     if t.alias:
         attrs.append(("alias", t.alias))
+    if t.max_priority is not None:  # OA-TRIG-5
+        attrs.append(("maxpriority", repr(t.max_priority)))
     return element("trigger", attrs)
 
 

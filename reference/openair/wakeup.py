@@ -14,12 +14,13 @@ from dataclasses import dataclass
 from lxml import etree
 
 from openair._errors_base import OpenAIRError
+from openair.attachments import ChunkCursor, attach_collection, chunks_of, prefix_within
 from openair.codec import message_from_element, message_to_element
 from openair.content import Phase
 from openair.errors import ContentInvalidError, MessageInvalidError
-from openair.fastcodec import fast_encode_str, message_with, text_slot_xml, time_xml
+from openair.fastcodec import derived, fast_encode_str, message_with, text_slot_xml, time_xml
 from openair.framing import Frame, FrameTag, encode_frame
-from openair.message import Message
+from openair.message import Message, Slot
 from openair.objects import (
     attr,
     element,
@@ -39,8 +40,10 @@ __all__ = [
     "EncodedCopies",
     "Wakeup",
     "assemble_wakeup",
+    "attach_wakeup",
     "build_wakeup",
     "collection_xml",
+    "fit_attachments",
     "parse_wakeup",
     "phase_spec_xml",
     "stored_xml",
@@ -50,6 +53,7 @@ WAKEUP_TYPE = "AIR.Instruct.Wakeup"
 TRIGGER_MESSAGE = "TriggerMessage"
 RETRIEVED_MESSAGES = "RetrievedMessages"
 PHASE_SPEC = "PhaseSpec"
+OMITTED = "omitted"  # the slot of OA-WAKE-11
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -58,13 +62,16 @@ class Wakeup:
 
     `trigger` is None for a phase update (OA-WAKE-8); `phase` is None when the wakeup carries
     no PhaseSpec ("out of context", spec 8.8). `lasttrigger` is the pattern that fired, empty
-    for a wakeup due only to `cc` (OA-WAKE-4).
+    for a wakeup due only to `cc` (OA-WAKE-4). Messages carry their attachments in `binary`
+    (OA-WAKE-10); `omitted` counts the retrieved messages the server left out so that the
+    attachments fit its frame limit (the `omitted` slot, OA-WAKE-11).
     """
 
     trigger: Message | None
     retrieved: tuple[Message, ...] = ()
     phase: Phase | None = None
     lasttrigger: str = ""
+    omitted: int = 0
 
 
 def _named_object(name: str, inner: etree._Element) -> etree._Element:
@@ -300,10 +307,58 @@ def parse_wakeup(msg: Message) -> Wakeup:
         raise ContentInvalidError(f"wakeup content must be one <objectdictionary>, found {found}")
     objects = _objects(roots[0])
     retrieved_el = objects.get(RETRIEVED_MESSAGES)
+    trigger_el = objects.get(TRIGGER_MESSAGE)
     phase, lasttrigger = _phase(objects.get(PHASE_SPEC))
+    trigger = _trigger(trigger_el)
+    retrieved = () if retrieved_el is None else read_message_collection(retrieved_el)
+    # OA-WAKE-10, OA-MSG-21: the frame's chunks are the trigger's, then the retrieved ones'.
+    cursor = ChunkCursor(msg.binary)
+    if trigger is not None and trigger_el is not None:
+        trigger = cursor.attach(trigger, trigger_el)
+    if retrieved_el is not None:
+        retrieved = attach_collection(retrieved, retrieved_el, cursor)
+    cursor.finish()
     return Wakeup(
-        trigger=_trigger(objects.get(TRIGGER_MESSAGE)),
-        retrieved=() if retrieved_el is None else read_message_collection(retrieved_el),
+        trigger=trigger,
+        retrieved=retrieved,
         phase=phase,
         lasttrigger=lasttrigger,
+        omitted=_omitted(msg),
     )
+
+
+def _omitted(msg: Message) -> int:
+    """Read the `omitted` slot of a wakeup (OA-WAKE-11); absent means 0."""
+    slot = msg.extra(OMITTED)
+    if slot is None:
+        return 0
+    text = slot.value.strip()
+    if not text.isascii() or not text.isdigit():
+        raise ContentInvalidError(f"omitted slot {text[:40]!r} is not a count")
+    return int(text)
+
+
+def fit_attachments(
+    stored: Message, retrieved: Sequence[Message], max_binary: int
+) -> tuple[Sequence[Message], int]:
+    """Return the retrieved messages whose attachments fit a wakeup, and how many were left out.
+
+    The trigger message's chunks always go (a post fits the same limit); retrieved messages
+    are left out from the end of the collection until the total fits `max_binary`
+    (OA-WAKE-11).
+    """
+    budget = max_binary - sum(len(chunk) for chunk in stored.binary)
+    kept = prefix_within(retrieved, budget)
+    return retrieved[:kept], len(retrieved) - kept
+
+
+def attach_wakeup(
+    wakeup: Message, stored: Message, retrieved: Sequence[Message], omitted: int
+) -> Message:
+    """Give a wakeup the chunks of its trigger and retrieved messages (OA-WAKE-10, OA-MSG-21).
+
+    `omitted` > 0 adds the `omitted` slot (OA-WAKE-11).
+    """
+    chunks = chunks_of((stored, *retrieved))
+    extras = (*wakeup.extras, Slot(name=OMITTED, value=str(omitted))) if omitted else wakeup.extras
+    return derived(wakeup, binary=chunks, extras=extras)

@@ -29,6 +29,7 @@ config = pytest.importorskip("openair.server.config")
 LIMITED: dict[str, dict[str, int]] = {
     "DELIV-003": {"max_queue": 300},
     "FRAME-018": {"frame_deadline_ms": 400},
+    "ATT-005": {"max_frame_binary": 4096},
 }
 
 #: Failures of the reference server found by the suite (case → what the server does wrong).

@@ -12,7 +12,10 @@ nothing is patched outside the block). The mutants live in modules by spec area:
 - mutants_streams.py — streams: ring, ids, lookups, waits, BinaryM, push, limits, locks and
   alarms (section 11);
 - mutants_clarified.py — the rules spec 1.0-draft.5 made precise (content globs, the character
-  table, pattern limits, literal pattern characters, wbid range, RESOLVE ports, callback paths).
+  table, pattern limits, literal pattern characters, wbid range, RESOLVE ports, callback paths);
+- mutants_contexts.py — contexts and phases (section 8.9, extension `contexts`);
+- mutants_attachments.py — issue #21: attachments, the content version, bare stream
+  registrations, `qos` (timetolive, alarm triggers) and the bounded payload search.
 
 test_mutants.py runs the conformance cases that could catch each mutant against a server
 started with it active, and reports which cases catch which mutant.
@@ -20,7 +23,9 @@ started with it active, and reports which cases catch which mutant.
 
 from __future__ import annotations
 
+import mutants_attachments
 import mutants_clarified
+import mutants_contexts
 import mutants_input
 import mutants_matching
 import mutants_routing
@@ -41,4 +46,6 @@ MODULES = (
     mutants_input,
     mutants_streams,
     mutants_clarified,
+    mutants_contexts,
+    mutants_attachments,
 )

@@ -27,6 +27,7 @@ from openair_conformance.registry import case
 _COMPONENTS = ("CNS", "Config", "Psyclone", "AIRServer", "ContextsAndPhases")
 _EXTENSIONS = frozenset(
     {"noreply", "pipelining", "usec", "gettime", "durable", "typed-streams", "contexts", "monitor"}
+    | {"qos"}
 )
 _LIMITS = {
     "max-frame-xml": 16_777_216,
@@ -340,7 +341,15 @@ async def unknown_command_components(ctx: CaseContext) -> None:
     id="CAP-001",
     title="CAPABILITIES names the protocol, known extensions only (never auth) and every limit",
     section="15.1",
-    requirements=("OA-SESS-23", "OA-CAP-1", "OA-CAP-3", "OA-LIM-4", "OA-EXT-1", "OA-EXT-4"),
+    requirements=(
+        "OA-SESS-23",
+        "OA-CAP-1",
+        "OA-CAP-3",
+        "OA-LIM-4",
+        "OA-EXT-1",
+        "OA-EXT-4",
+        "OA-SESS-20",
+    ),
     allowed=(
         "CAPABILITIES with <capabilities protocol='OpenAIR/1.0' server='…'>, one <extension> per "
         "implemented extension, one <limit> per limit of 14.1",
@@ -388,7 +397,21 @@ async def capabilities(ctx: CaseContext) -> None:
     ctx.check(
         not missing, f"limits not advertised: {missing}", expected="every limit of 14.1 (OA-LIM-4)"
     )
-    ctx.check(all(v >= 0 for _, v in limits), f"limits {limits}", expected="non-negative integers")
+    ctx.check(
+        all(v >= 0 for _, v in limits),
+        f"limits {limits}",
+        expected="non-negative decimal integers (OA-CAP-1)",
+    )
+    written = [
+        attributes(child).get("value", "")
+        for child in content_object(reply, "capabilities")
+        if isinstance(child.tag, str) and child.tag.lower() == "limit"
+    ]
+    ctx.check(
+        all(value.isascii() and value.isdigit() for value in written),
+        f"limit values as written: {written}",
+        expected="ASCII digits only: no sign, unit, fraction or exponent (OA-CAP-1)",
+    )
 
 
 @case(

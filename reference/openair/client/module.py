@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 from types import TracebackType
 from typing import TYPE_CHECKING, TypeVar
 
+from openair.attachments import parse_results
 from openair.client.link import Link
 from openair.client.listener import Listener
 from openair.client.session import CLIENT_EXTENSIONS, DEFAULT_MAX_IN_FLIGHT, ClientConnection
@@ -51,7 +52,6 @@ from openair.message import Message
 from openair.objects import (
     Capabilities,
     parse_capabilities,
-    parse_message_collection,
     parse_tcplocation,
 )
 from openair.registration import encode_registration, encode_retrieve, encode_retrieves
@@ -540,8 +540,12 @@ class Module:
         content_is_xml: bool = False,
         noreply: bool = False,
         binary: Sequence[bytes] = (),
+        version: str = "",
     ) -> Message:
-        """Build a message from this module (type validated, OA-TYPE-1)."""
+        """Build a message from this module (type validated, OA-TYPE-1).
+
+        `binary` are its attachments (OA-WB-13), `version` its content's version (OA-MSG-22).
+        """
         return Message(
             type=validate_type(type),
             sender=self.name,
@@ -553,6 +557,7 @@ class Module:
             content_is_xml=content_is_xml,
             noreply=noreply,
             binary=tuple(binary),
+            content_version=version,
         )
 
     async def post(
@@ -567,6 +572,7 @@ class Module:
         content_is_xml: bool = False,
         noreply: bool = False,
         binary: Sequence[bytes] = (),
+        version: str = "",
     ) -> Message:
         """Post a message and wait for RECEIVE_ACCEPT (OA-WB-3); return it as sent.
 
@@ -576,7 +582,7 @@ class Module:
         """
         msg = self.message(
             to, type, content, cc=cc, priority=priority, language=language,
-            content_is_xml=content_is_xml, noreply=noreply, binary=binary,
+            content_is_xml=content_is_xml, noreply=noreply, binary=binary, version=version,
         )  # fmt: skip
         if noreply:
             return await self._post_noreply(msg)
@@ -679,7 +685,7 @@ class Module:
         _expect(sent, reply, f"{kind}.Success")  # OA-RET-7
         if not reply.content.strip():
             return []
-        return list(parse_message_collection(reply.content))
+        return list(parse_results(reply))  # with their attachments (OA-RET-19)
 
     async def resolve(self, name: str) -> TcpLocation:
         """Ask CNS where a component listens (OA-SESS-8); RESOLVE_FAILED raises."""

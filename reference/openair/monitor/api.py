@@ -174,6 +174,7 @@ def _index(mon: Monitor, request: Request, peer: str, args: list[str]) -> Respon
                 "/api/whiteboards",
                 "/api/whiteboards/{name}/messages?pattern=&from=&content=&limit=&before=",
                 "/api/messages/{whiteboard}/{wbid or id}",
+                "/api/messages/{whiteboard}/{wbid or id}/attachments/{n}",
                 "/api/modules",
                 "/api/modules/{name}",
                 "/api/streams",
@@ -209,6 +210,21 @@ def _message(mon: Monitor, request: Request, peer: str, args: list[str]) -> Resp
     if found is None:
         raise HttpError(404, f"no message {args[1]!r} on {args[0]!r}")
     return _json(found)
+
+
+def _attachment(mon: Monitor, request: Request, peer: str, args: list[str]) -> Response:
+    """Download attachment n (from 1) of a stored message as bytes (OA-WB-13)."""
+    msg = views.stored_message(mon, args[0], args[1])
+    index = int(args[3]) if args[3].isdigit() and len(args[3]) < 9 else 0
+    if msg is None or not 1 <= index <= len(msg.binary):
+        raise HttpError(404, f"no attachment {args[3]!r} of {args[1]!r} on {args[0]!r}")
+    name = f"{args[0]}-{msg.wbid}-{index}.bin".replace('"', "")
+    disposition = ("Content-Disposition", f'attachment; filename="{name}"')
+    return Response(
+        body=msg.binary[index - 1],
+        content_type="application/octet-stream",
+        headers=(*_API_HEADERS, disposition),
+    )
 
 
 def _modules(mon: Monitor, request: Request, peer: str, args: list[str]) -> Response:
@@ -341,6 +357,7 @@ _ROUTES: tuple[tuple[re.Pattern[str], tuple[str, ...], Handler], ...] = (
     (re.compile(r"/whiteboards"), _READ, _whiteboards),
     (re.compile(rf"/whiteboards{_NAME}/messages"), _READ, _messages),
     (re.compile(rf"/messages{_NAME}{_NAME}"), _READ, _message),
+    (re.compile(rf"/messages{_NAME}{_NAME}/attachments/[0-9]+"), _READ, _attachment),
     (re.compile(r"/modules"), _READ, _modules),
     (re.compile(rf"/modules{_NAME}"), _READ, _module),
     (re.compile(r"/streams"), _READ, _streams),

@@ -132,6 +132,8 @@ def summary(
         "size": len(content),
         "preview": content[:_PREVIEW],
         "wakeups": None if deliveries is None else len(deliveries),
+        "attachments": len(msg.binary),  # OA-WB-13
+        "attachment_bytes": sum(len(chunk) for chunk in msg.binary),
     }
 
 
@@ -172,6 +174,7 @@ def _slots(msg: Message) -> dict[str, object]:
         "language": msg.language,
         "content": msg.content,
         "contentIsXml": msg.content_is_xml,
+        "contentVersion": msg.content_version,
         "binarysizes": [len(chunk) for chunk in msg.binary],
         "extras": [{"name": s.name, "value": s.value, "xml": s.is_xml} for s in msg.extras],
     }

@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 from openair.content import Phase, Registration, RetrieveSpec
+from openair.message import Message
 from openair.monitor.messages import MessageFilter, detail, summary
 from openair.monitor.tap import Event
 
@@ -240,6 +241,18 @@ def find_message(mon: Monitor, whiteboard: str, key: str) -> dict[str, object] |
     for msg in board.newest_first():
         if (wbid is not None and msg.wbid == wbid) or msg.id == key:
             return detail(msg, None)
+    return None
+
+
+def stored_message(mon: Monitor, whiteboard: str, key: str) -> Message | None:
+    """Return a message the whiteboard still stores, by wbid (digits) or id, or None."""
+    board = mon.server.router.whiteboard(whiteboard)
+    if board is None:
+        return None
+    wbid = int(key) if key.isdigit() else None
+    for msg in board.newest_first():
+        if (wbid is not None and msg.wbid == wbid) or msg.id == key:
+            return msg
     return None
 
 

@@ -35,6 +35,7 @@ from openair.server.config import (
     load_config,
 )
 from openair.server.delivery import DeliveryOptions, Dispatcher
+from openair.server.internal import InternalModules, start_internal
 from openair.server.protocol import FlowLimits, Role, ServerConnection
 from openair.server.pusher import Pusher
 from openair.server.router import ModuleInfo, Outcome, Router, SamplePush
@@ -52,7 +53,9 @@ __all__ = [
 log = logging.getLogger("openair.server")
 
 #: Extensions the reference server implements; `durable` is added only with a durable store.
-DEFAULT_EXTENSIONS = frozenset({"noreply", "pipelining", "usec", "gettime", "typed-streams"})
+DEFAULT_EXTENSIONS = frozenset(
+    {"noreply", "pipelining", "usec", "gettime", "typed-streams", "contexts", "qos"}
+)
 _TICK_S = 0.1  # OA-XSTREAM-7: Idle alarms are checked at least this often
 _BINDS = frozenset({"BIND", "BIND_NOLISTEN"})
 DEFAULT_PORT = 10000
@@ -125,6 +128,7 @@ class Server:
         wanted = options.extensions | {"monitor"} if options.monitor else options.extensions
         self.extensions = _extensions(wanted, store)  # OA-EXT-1: `monitor` with the web monitor
         self.router: Router
+        self.internal: InternalModules | None = None  # the modules run inside (OA-CONF-8)
         self._listener: asyncio.Server | None = None
         self._conns: dict[int, ServerConnection] = {}
         self._outbound: set[ServerConnection] = set()
@@ -140,7 +144,11 @@ class Server:
             options=options.delivery,
         )
         self.delivered_total = 0
-        self.dropped_total: dict[str, int] = {"QUEUE_OVERFLOW": 0, "DELIVERY_FAILED": 0}
+        self.dropped_total: dict[str, int] = {
+            "QUEUE_OVERFLOW": 0,
+            "DELIVERY_FAILED": 0,
+            "EXPIRED": 0,  # OA-DELIV-14
+        }
         #: The web monitor attached by `openair.monitor.attach` (None: no HTTP served).
         self.monitor: MonitorHook | None = None
         self._pushers: dict[int, Pusher] = {}  # push connections by id (11.6)
@@ -189,15 +197,16 @@ class Server:
         self._apply(outcome, conn.conn_id)
         return outcome
 
-    def inject(self, msg: Message, *, received_ns: int) -> Outcome:
+    def inject(self, msg: Message, *, received_ns: int, conn_id: int = 0) -> Outcome:
         """Route a message that came from no connection (the monitor's post form) as a post.
 
         Its deliveries are queued as for any request; its replies are the caller's to read.
+        Internal modules pass their own negative `conn_id` (their session, OA-CONF-8).
         """
         outcome = self.router.handle(
-            0, msg, tag=FrameTag.MESSAGE, received_ns=received_ns, now_ns=received_ns
+            conn_id, msg, tag=FrameTag.MESSAGE, received_ns=received_ns, now_ns=received_ns
         )
-        self._apply(outcome, 0)
+        self._apply(outcome, conn_id)
         return outcome
 
     def http_takeover(self, conn: ServerConnection, data: bytes) -> bool:
@@ -371,6 +380,7 @@ class Server:
         )
         self.router.status_extra = self._status_counters
         self._apply(self.router.start(time.time_ns()), 0)  # OA-SESS-31: System.Ready
+        self.internal = start_internal(self)  # OA-CONF-8; ConfigError refuses the start
         if "typed-streams" in self.extensions:
             self._ticker = asyncio.get_running_loop().call_later(_TICK_S, self._tick)
         if self.options.monitor:

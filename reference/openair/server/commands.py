@@ -49,6 +49,7 @@ KNOWN_EXTENSIONS = (
     "contexts",
     "auth",
     "monitor",
+    "qos",
 )
 _KNOWN = frozenset(KNOWN_EXTENSIONS) - {"auth"}  # OA-EXT-4: auth is never declared
 _NS_PER_MS = 1_000_000

@@ -31,6 +31,7 @@ from openair.message import Message
 from openair.server.protocol import ServerConnection, Wire
 from openair.server.queues import DeliveryQueue, QueueItem
 from openair.server.router import Delivery, ModuleInfo
+from openair.server.scheduling import DEFAULT_TURN_BUDGET, TurnGate
 from openair.server.streams import SampleBuffer, StoredSample
 from openair.server.streamservice import push_frame, push_message
 
@@ -53,6 +54,7 @@ class DeliveryOptions:
     retries: int = 2  # OA-DELIV-7
     backoff_s: tuple[float, ...] = (0.05, 0.25)
     connect_timeout_s: float = 5.0
+    turn_budget: int = DEFAULT_TURN_BUDGET  # OA-PRIO-5: deliveries started per loop turn
 
 
 class DeliveryHost(Protocol):
@@ -82,6 +84,7 @@ class ModuleCounters:
     failed: int = 0  # DELIVERY_FAILED: abandoned after the retries (or at shutdown)
     refused: int = 0  # answered with something other than the acknowledgement
     retried: int = 0
+    expired: int = 0  # OA-DELIV-14: dropped unsent after the message's timetolive
 
 
 @dataclass(slots=True, eq=False)
@@ -125,6 +128,7 @@ class ModuleDelivery:
         self._outbound: ServerConnection | None = None
         self._outbound_at = ("", 0)
         self._sending = 0  # 1 while an attempt is between the queue and the connection
+        self._grant = 0  # deliveries this module may still start in its turn (OA-PRIO-5)
         # Samples of the streams the module subscribed to (OA-STREAM-14): one bounded buffer per
         # stream (OA-STREAM-8); they go before queued messages ("streams outrank messages").
         self.samples: dict[str, SampleBuffer] = {}
@@ -144,6 +148,7 @@ class ModuleDelivery:
             wb_priority=delivery.wb_priority,
             due_ns=delivery.due_ns,
             wire=delivery.wire,
+            expires_ns=delivery.expires_ns,
         )
         self._wake.set()
         return victim
@@ -190,19 +195,35 @@ class ModuleDelivery:
             if attempt is None:
                 self._flush()  # the burst is over: send it before waiting
                 attempt = await self._next()
+                self._grant = 0  # it waited: it asks for a turn again (OA-PRIO-5)
             self._sending = 1
             try:
+                if self._grant <= 0:
+                    self._flush()
+                    self._grant = await self._turn(attempt.item)
+                self._grant -= 1
                 conn = await self._choose()
                 if conn is None:
                     self._failed(attempt, "no connection to the module")
                     continue
                 item = attempt.item
+                if item.expires_ns and time.time_ns() >= item.expires_ns:
+                    self._expire_unsent(item)  # OA-DELIV-14: not sent within timetolive
+                    continue
                 sent = self._wire_form(item.message)
                 wire = item.wire if sent is item.message else None  # written by the router
                 self._watch(attempt, conn, sent, wire)
             finally:
                 self._sending = 0
                 self._d.idle_check()
+
+    async def _turn(self, item: QueueItem) -> int:
+        """Wait for a turn for a burst that starts with `item` (OA-PRIO-5, OA-PRIO-6)."""
+        ready = 1 + len(self.queue) - self.queue.delayed + len(self._retry)
+        room = self._window() - len(self._in_flight)
+        return await self._d.gate.turn(
+            wb_priority=item.wb_priority, priority=item.priority, want=min(ready, room)
+        )
 
     def _spawn(self, coro: Coroutine[object, object, None]) -> None:
         """Run one attempt's follow-up; it holds a slot of the window until it ends."""
@@ -292,6 +313,12 @@ class ModuleDelivery:
         self._in_flight.discard(entry)
         self._room.set()
         self._d.idle_check()
+
+    def _expire_unsent(self, item: QueueItem) -> None:
+        """Drop a delivery whose message's timetolive has passed, and count it (OA-DELIV-14)."""
+        self.counters.expired += 1
+        self._d.host.dropped(self.name, 1, "EXPIRED")
+        log.info("event=delivery_expired module=%s type=%s", self.name, item.message.type)
 
     def _wire_form(self, msg: Message) -> Message:
         """Drop `noreply` towards a module that did not declare it (OA-GEN-2, OA-MSG-15).
@@ -496,6 +523,7 @@ class Dispatcher:
         self.max_in_flight = max_in_flight
         self.options = options or DeliveryOptions()
         self.modules: dict[str, ModuleDelivery] = {}
+        self.gate = TurnGate(self.options.turn_budget)  # whiteboard priority across modules
         self._idle_waiters: list[asyncio.Future[None]] = []
         self.on_drop: Callable[[str, QueueItem], None] | None = None
         #: Called with (module, item) for each acknowledged delivery: the monitor's latency tap.
@@ -591,6 +619,7 @@ class Dispatcher:
                 "failed": md.counters.failed,
                 "refused": md.counters.refused,
                 "retried": md.counters.retried,
+                "expired": md.counters.expired,
                 "discarded": md.queue.counters.discarded,
             }
             for name, md in self.modules.items()

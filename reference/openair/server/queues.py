@@ -38,6 +38,7 @@ class QueueItem:
     seq: int = 0
     # The frame of `message` already written: bytes, or parts (header + XML, then chunks).
     wire: bytes | tuple[bytes, ...] | None = field(default=None, compare=False, repr=False)
+    expires_ns: int = field(default=0, compare=False)  # OA-DELIV-14: 0 = never expires
 
     @property
     def order(self) -> tuple[float, float, int]:
@@ -89,6 +90,7 @@ class DeliveryQueue:
         wb_priority: float = 1.0,
         due_ns: int = 0,
         wire: bytes | None = None,
+        expires_ns: int = 0,
     ) -> QueueItem | None:
         """Queue `message`; return the item dropped for lack of room, if any (OA-DELIV-9).
 
@@ -102,6 +104,7 @@ class DeliveryQueue:
             due_ns=due_ns,
             seq=self._seq,
             wire=wire,
+            expires_ns=expires_ns,
         )
         self._items[item.seq] = item
         heapq.heappush(self._victims, (-priority, item.seq))

@@ -7,8 +7,10 @@ OA-RET-15).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 
+from openair.attachments import chunks_of
 from openair.content import RetrieveSpec
 from openair.errors import (
     LimitExceededError,
@@ -54,8 +56,13 @@ def answer_retrieve(
     *,
     now_ns: int,
     max_xml: int,
+    max_binary: int = 64 * 1024 * 1024,
 ) -> Message:
-    """Answer an AIR.Retrieve / AIR.Retrieves sent to `addressee` (spec 9.1–9.4)."""
+    """Answer an AIR.Retrieve / AIR.Retrieves sent to `addressee` (spec 9.1–9.4).
+
+    The results' attachments travel as the reply's chunks (OA-RET-19); a reply whose XML or
+    chunks would exceed the limits is LIMIT_EXCEEDED (OA-RET-15).
+    """
     base = RETRIEVES if msg.type == RETRIEVES else RETRIEVE
     try:
         specs = parse_request(msg)
@@ -70,12 +77,19 @@ def answer_retrieve(
             raise LimitExceededError(
                 f"{len(results)} results exceed max-frame-xml ({max_xml} bytes)"
             )
+        chunks = chunks_of(results)  # OA-RET-19, OA-MSG-21: in the order of the results
+        if sum(len(chunk) for chunk in chunks) > max_binary:  # OA-RET-15
+            raise LimitExceededError(
+                f"the attachments of {len(results)} results exceed max-frame-binary"
+                f" ({max_binary} bytes); ask for fewer with latest"
+            )
     except OpenAIRError as err:
         sender = addressee.name
         return error_reply(msg, err, sender=sender, now_ns=now_ns, type_=f"{base}.Failed")
-    return reply(
+    answer = reply(
         msg, f"{base}.Success", sender=addressee.name, now_ns=now_ns, content=content, xml=True
     )
+    return dataclasses.replace(answer, binary=chunks) if chunks else answer
 
 
 def registration_results(

@@ -13,7 +13,7 @@ woken module (OA-WAKE-5).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 from openair.content import ANY_WHITEBOARD, Dictionary, Phase, Registration, TcpLocation
@@ -40,6 +40,7 @@ from openair.server.config import (
     ServerConfig,
     ServerLimits,
 )
+from openair.server.contexts import PHASE_CHANGE, Contexts, context_of
 from openair.server.retrieve import RETRIEVE, RETRIEVES, answer_retrieve, registration_results
 from openair.server.sessions import ConnId, ModuleInfo, Sessions
 from openair.server.store import HistoryStore
@@ -58,8 +59,10 @@ from openair.types import validate_type
 from openair.wakeup import (
     EncodedCopies,
     assemble_wakeup,
+    attach_wakeup,
     build_wakeup,
     collection_xml,
+    fit_attachments,
     phase_spec_xml,
 )
 
@@ -92,6 +95,9 @@ class Delivery:
     wb_priority: float  # the sending whiteboard's priority (OA-PRIO-2)
     # The Message frame of `message` when the router already wrote it (a wakeup), else None.
     wire: bytes | None = field(default=None, compare=False, repr=False)
+    expires_ns: int = 0  # OA-DELIV-14: dropped when still unsent at this time (0: never)
+    # A wakeup's stored trigger message, for internal modules (OA-CONF-8: no XML to parse).
+    trigger: Message | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -170,6 +176,7 @@ class Router:
         self.started_ns: int | None = None
         self._store = store
         self._noreply = "noreply" in extensions
+        self._qos = "qos" in extensions  # OA-DELIV-14, OA-TRIG-5
         self._shutting_down = False
         self._whiteboards = {
             wb.name: Whiteboard.from_config(wb, store) for wb in config.whiteboards
@@ -191,6 +198,9 @@ class Router:
         self._counters: dict[str, _ModuleCounters] = {}
         self._lost_notices = 0
         self._copies = EncodedCopies()
+        # Spec 8.9: the active contexts and phase sequencing; None without the extension.
+        self._contexts = Contexts() if "contexts" in extensions else None
+        self._internal: set[str] = set()  # names held by internal modules (OA-CONF-8)
         for name in self._configured:
             self._reindex(name)
         self._components = self._component_tables()
@@ -237,6 +247,10 @@ class Router:
             for name in names:
                 deliveries.extend(self._notice(f"Psyclone.Module.Lost.{name}", now_ns))
         return Outcome(deliveries=tuple(deliveries), close_conns=close, discard_queues=tuple(names))
+
+    def hold(self, name: str) -> None:
+        """Refuse every later BIND of `name`: an internal module is bound to it (OA-CONF-8)."""
+        self._internal.add(name)
 
     def module(self, name: str) -> ModuleInfo | None:
         """Return the bound module `name` (exact case), or None."""
@@ -387,7 +401,12 @@ class Router:
             return self._subscribe(board, msg, now_ns)
         if kind in (RETRIEVE, RETRIEVES):
             answer = answer_retrieve(
-                msg, board, self._whiteboards, now_ns=now_ns, max_xml=self.limits.max_frame_xml
+                msg,
+                board,
+                self._whiteboards,
+                now_ns=now_ns,
+                max_xml=self.limits.max_frame_xml,
+                max_binary=self.limits.max_frame_binary,  # OA-RET-15, OA-RET-19
             )
             return Outcome(replies=(answer,))
         if kind == "PING" or kind == "KEEPALIVE":
@@ -408,7 +427,12 @@ class Router:
             stored = board.store_post(msg, received_ns)  # OA-TIME-3, OA-WB-4, OA-WB-5
         except StoreFailedError as err:  # OA-WB-3: not stored, so not acknowledged
             return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
-        deliveries = self._decide(board, stored, now_ns)
+        if self._contexts is not None and (
+            stored.type == PHASE_CHANGE or stored.type.startswith("Psyclone.Context:")
+        ):  # OA-REG-18: the change comes first, then the post's own wakeups
+            deliveries = self._context_post(board, stored, now_ns)
+        else:
+            deliveries = self._decide(board, stored, now_ns)
         if self.observer is not None:
             self.observer(board.name, stored, deliveries)
         if msg.noreply and self._noreply:  # OA-MSG-15, OA-WB-8: handle() would drop the ack
@@ -430,6 +454,7 @@ class Router:
         base_ns = board.last_received_ns  # the receivedTime stamped on `stored`
         posted = cmd.ms_time(now_ns)
         trigger_xml = self._copies.xml(stored)  # the stored copy is written once per post
+        attached, limits = bool(stored.binary), self.limits  # OA-WB-13: its attachments
         deliveries: list[Delivery] = []
         for name in sorted(chosen) if len(chosen) > 1 else chosen:
             after, pattern = chosen[name]
@@ -438,12 +463,15 @@ class Router:
             if triggers is not None and triggers.registration is reg:
                 phase = triggers.phase
             else:
-                phase = reg.active_phase if reg is not None else None
-            retrieved = (
+                phase = self._phase_in_force(name, reg)
+            retrieved: Sequence[Message] = (
                 registration_results(phase.retrieves, board, self._whiteboards, now_ns=now_ns)
                 if phase is not None and phase.retrieves
                 else ()
             )  # OA-WAKE-7
+            omitted, chunked = 0, attached or any(m.binary for m in retrieved)
+            if chunked:  # OA-WAKE-11: leave retrieved messages out until the chunks fit
+                retrieved, omitted = fit_attachments(stored, retrieved, limits.max_frame_binary)
             wakeup, wire = assemble_wakeup(
                 trigger_xml=trigger_xml,
                 retrieved_xml=collection_xml(retrieved, self._copies),
@@ -454,6 +482,9 @@ class Router:
                 id=cmd.fresh_id(),
                 posted=posted,
             )
+            if chunked:
+                wakeup = attach_wakeup(wakeup, stored, retrieved, omitted)  # OA-WAKE-10
+                wire = None  # the spliced frame has no chunks: the sender writes it
             deliveries.append(
                 Delivery(
                     module=name,
@@ -462,11 +493,20 @@ class Router:
                     priority=stored.effective_priority,  # OA-PRIO-1
                     wb_priority=board.priority,  # OA-PRIO-2
                     wire=wire,
+                    expires_ns=self._expiry(stored, base_ns),  # OA-DELIV-14
+                    trigger=stored,
                 )
             )
             self._module_counters(name).queued += 1
         board.dispatched += len(deliveries)
         return tuple(deliveries)
+
+    def _expiry(self, msg: Message, received_ns: int) -> int:
+        """Return when a delivery of `msg` expires under `qos` (OA-DELIV-14); 0 means never."""
+        ttl = msg.timetolive
+        if not self._qos or ttl is None or not ttl > 0:
+            return 0
+        return received_ns + round(ttl * _NS_PER_MS)
 
     def _phase_xml(
         self, name: str, reg: Registration | None, phase: Phase | None, lasttrigger: str
@@ -497,6 +537,8 @@ class Router:
                 continue  # OA-TRIG-2: case-insensitive; "" is any whiteboard
             if sender == name and not triggers.allow_self:
                 continue  # OA-TRIG-4, OA-REG-6
+            if self._qos and not _urgent_enough(triggers, i, stored):
+                continue  # OA-TRIG-5: an alarm trigger wants time-critical messages only
             current = best.get(name)
             if current is None or (after, i) < current:
                 best[name] = (after, i)  # OA-WAKE-6: smallest after, first on a tie
@@ -533,6 +575,7 @@ class Router:
             due_ns=received_ns,
             priority=msg.effective_priority,
             wb_priority=DEFAULT_WB_PRIORITY,
+            expires_ns=self._expiry(msg, received_ns),  # OA-DELIV-14
         )
         self._module_counters(msg.to).queued += 1
         ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=msg.to, now_ns=now_ns)
@@ -609,6 +652,8 @@ class Router:
         except OpenAIRError as err:  # OA-REG-8: the previous registration stays in force
             return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
         self._subscribed[msg.sender] = reg
+        if self._contexts is not None:
+            self._contexts.forget(msg.sender)  # OA-REG-17: a new registration starts afresh
         self._reindex(msg.sender)
         ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=board.name, now_ns=now_ns)
         return Outcome(replies=(ack,), deliveries=self._phase_update(msg.sender, now_ns))
@@ -622,7 +667,7 @@ class Router:
             stored=None,
             whiteboard=_PHASE_SENDER,
             module=name,
-            phase=reg.active_phase if reg is not None else None,
+            phase=self._phase_in_force(name, reg),
         )
         self._module_counters(name).queued += 1
         message = derive(update, posted=cmd.ms_time(now_ns))
@@ -636,6 +681,34 @@ class Router:
             ),
         )
 
+    def _phase_in_force(self, name: str, reg: Registration | None) -> Phase | None:
+        """Return the phase in force: by contexts (OA-REG-14), else Ready's first (OA-REG-10)."""
+        if self._contexts is not None:
+            return self._contexts.phase(name, reg)
+        return reg.active_phase if reg is not None else None
+
+    def _context_post(
+        self, board: Whiteboard, stored: Message, now_ns: int
+    ) -> tuple[Delivery, ...]:
+        """Apply a context or phase change, then decide the post's wakeups (OA-REG-13..18)."""
+        assert self._contexts is not None
+        if stored.type == PHASE_CHANGE:  # OA-REG-17: the poster's own phase advances
+            reg = self.registration(stored.sender)
+            self._contexts.advance(stored.sender, reg)
+            names = [stored.sender] if reg is not None else []
+        else:
+            context = context_of(stored.type)
+            changed = context is not None and self._contexts.activate(context)
+            names = list(self._triggers) if changed else []
+        updates: list[Delivery] = []
+        for name in names:
+            old = self._triggers.get(name)
+            self._reindex(name)
+            new = self._triggers.get(name)
+            if (old.phase if old else None) is not (new.phase if new else None):
+                updates.extend(self._phase_update(name, now_ns))  # OA-REG-15
+        return (*updates, *self._decide(board, stored, now_ns))
+
     def _reindex(self, name: str) -> None:
         """Put the triggers of `name`'s registration in force into the index (OA-REG-1)."""
         old = self._triggers.pop(name, None)
@@ -647,16 +720,18 @@ class Router:
         if reg is None:
             self._sessions.set_registration(name, None)
             return
+        phase = self._phase_in_force(name, reg)
         entries = tuple(
-            (t.pattern, _folded_board(t.whiteboard), t.after_ms) for t in reg.triggers
-        )  # OA-REG-10: the triggers of the phase in force
+            (t.pattern, _folded_board(t.whiteboard), t.after_ms)
+            for t in (phase.triggers if phase is not None else ())
+        )  # OA-REG-10, OA-REG-14: the triggers of the phase in force
         for i, (pattern, _, _) in enumerate(entries):
             self._index.add(pattern, (name, i))
         self._triggers[name] = _Triggers(
             registration=reg,
             entries=entries,
             allow_self=reg.allow_self_triggering,
-            phase=reg.active_phase,
+            phase=phase,
         )
         self._sessions.set_registration(name, reg)
 
@@ -678,7 +753,10 @@ class Router:
     def _reserved(self, name: str) -> bool:
         """Return whether `name` belongs to a whiteboard, stream or component (OA-SESS-30)."""
         return (
-            name in self._whiteboards or name in self.streams.names() or name in SYSTEM_COMPONENTS
+            name in self._whiteboards
+            or name in self.streams.names()
+            or name in SYSTEM_COMPONENTS
+            or name in self._internal  # OA-CONF-8: an internal module's name
         )
 
     def _receive_frame(self, conn: ConnId, msg: Message, now_ns: int) -> Outcome:
@@ -737,6 +815,10 @@ class Router:
         counters = dict(self.counters())
         if self.status_extra is not None:
             counters.update(self.status_extra())
+        if self._qos:  # OA-DELIV-14: the adapter counts expired deliveries among its drops
+            dropped = counters.get("dropped")
+            expired = dropped.get("EXPIRED", 0) if isinstance(dropped, Mapping) else 0
+            counters["Deliveries"] = {"Expired": expired}
         answer = cmd.status_reply(
             msg, started_ns=started, now_ns=now_ns, modules=modules, counters=counters
         )
@@ -807,6 +889,13 @@ class Router:
         if counters is None:
             counters = self._counters[name] = _ModuleCounters()
         return counters
+
+
+def _urgent_enough(triggers: _Triggers, i: int, stored: Message) -> bool:
+    """Whether trigger i (an alarm trigger or not) accepts the message's priority (OA-TRIG-5)."""
+    phase = triggers.phase
+    limit = phase.triggers[i].max_priority if phase is not None else None
+    return limit is None or stored.effective_priority <= limit
 
 
 def _folded_board(whiteboard: str) -> str:

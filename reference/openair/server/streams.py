@@ -47,6 +47,7 @@ _MAX_TIMESTAMP_MS = 2**63 - 1
 ALARM_TYPE_PREFIX = "AIR.Stream.Alarm."
 ALARM_KINDS = ("Started", "Idle", "SoftLimit", "HardLimit", "Gap")
 DEFAULT_IDLE_MS = 5000
+SCAN_LIMIT = 65_536  # OA-XSTREAM-11: payload bytes a SEARCH_SAMPLES <payload> looks at
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -576,12 +577,15 @@ class Stream:
         until_ms: int | None = None,
         params: Sequence[tuple[str, str]] = (),
         latest: int = 0,
+        payload: bytes = b"",
+        scan_limit: int = SCAN_LIMIT,
     ) -> list[StoredSample]:
         """Return the samples within the inclusive time bounds whose params match, oldest first.
 
         Each (key, glob) needs a parameter of that key whose value matches the retrieve
         content glob (OA-RET-8); a missing parameter does not match. `latest` > 0 keeps the newest
-        `latest` of them (OA-XSTREAM-9).
+        `latest` of them (OA-XSTREAM-9). A non-empty `payload` also needs that byte sequence
+        entirely within the first `scan_limit` bytes of the sample's payload (OA-XSTREAM-11).
         """
         matchers: list[tuple[str, Callable[[str], bool]]] = [
             (key, content_glob(glob)) for key, glob in params
@@ -593,6 +597,8 @@ class Stream:
         found: list[StoredSample] = []
         for st in islice(reversed(self._items), n - hi, n - lo):
             if lo_ms <= st.timestamp_ms <= hi_ms and _params_match(st.sample, matchers):
+                if payload and _find(st.sample.payload, payload, scan_limit) < 0:
+                    continue  # OA-XSTREAM-11: bounded by the scan limit
                 found.append(st)
                 if len(found) == latest:
                     break
@@ -674,6 +680,11 @@ class Stream:
             out["idle"] = str(spec.idle_ms)
         out["locked"] = str(self.locked)
         return out
+
+
+def _find(data: bytes | memoryview, pattern: bytes, scan_limit: int) -> int:
+    """Return where `pattern` starts within the first `scan_limit` bytes of `data`, or -1."""
+    return bytes(data[:scan_limit]).find(pattern)
 
 
 def _params_match(sample: DataSample, matchers: list[tuple[str, Callable[[str], bool]]]) -> bool:

@@ -10,6 +10,7 @@ alarms the router posts on a whiteboard (`alarms`). The ring buffers themselves 
 from __future__ import annotations
 
 import itertools
+import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -66,6 +67,8 @@ __all__ = [
 
 DATASAMPLE_XML = "<datasample/>"
 _NS_PER_MS = 1_000_000
+_HEX = re.compile(r"[0-9A-Fa-f]+")
+MAX_PATTERN_BYTES = 256  # OA-XSTREAM-11
 _READS = frozenset(
     {
         "GET_SAMPLE_BY_ID",
@@ -462,8 +465,10 @@ class StreamService:
     def _typed(self, conn: ConnId, stream: Stream, msg: Message, now_ns: int) -> Message:
         name = stream.name
         if msg.type == "SEARCH_SAMPLES":
-            after, until, params, latest = _search(msg.content)
-            found = stream.search(after_ms=after, until_ms=until, params=params, latest=latest)
+            after, until, params, latest, payload = _search(msg.content)
+            found = stream.search(
+                after_ms=after, until_ms=until, params=params, latest=latest, payload=payload
+            )
             return samples_reply(msg, found, sender=name, now_ns=now_ns)  # OA-XSTREAM-9
         if msg.type == "LOCK_SAMPLES":
             first, last = _range(msg.content)
@@ -666,14 +671,15 @@ def _time_pair(content: str) -> tuple[int, int]:
     return times[0], times[1]
 
 
-def _search(content: str) -> tuple[int | None, int | None, list[tuple[str, str]], int]:
-    """Read `<samplesearch>` (OA-XSTREAM-9)."""
+def _search(content: str) -> tuple[int | None, int | None, list[tuple[str, str]], int, bytes]:
+    """Read `<samplesearch>` (OA-XSTREAM-9, with `<payload>` OA-XSTREAM-11)."""
     roots = parse_content(content, ContentInvalidError)
     if len(roots) != 1 or local_name(roots[0]) != "samplesearch":
         raise ContentInvalidError("SEARCH_SAMPLES content must be one <samplesearch>")
     after = until = None
     params: list[tuple[str, str]] = []
     latest = 0
+    payload = b""
     seen: set[str] = set()
     for child in elements(roots[0]):
         kind = local_name(child)
@@ -691,9 +697,22 @@ def _search(content: str) -> tuple[int | None, int | None, list[tuple[str, str]]
             params.append((key, inner_text(child)))
         elif kind == "latest":
             latest = _integer(inner_text(child), "count")
+        elif kind == "payload":
+            payload = _byte_pattern(inner_text(child))  # OA-XSTREAM-11
         else:
             raise ContentInvalidError(f"<samplesearch> holds <{kind}>")
-    return after, until, params, max(latest, 0)
+    return after, until, params, max(latest, 0), payload
+
+
+def _byte_pattern(text: str) -> bytes:
+    """Read a `<payload>` byte pattern: 1-256 bytes as hex pairs, spaces between (OA-XSTREAM-11)."""
+    pairs = text.split()
+    if not all(len(p) % 2 == 0 and _HEX.fullmatch(p) for p in pairs):
+        raise ContentInvalidError(f"<payload> {text[:40]!r} is not bytes in hexadecimal")
+    pattern = bytes.fromhex("".join(pairs))
+    if not 1 <= len(pattern) <= MAX_PATTERN_BYTES:
+        raise ContentInvalidError(f"<payload> holds {len(pattern)} bytes, not 1 to 256")
+    return pattern
 
 
 def _one(stream: Stream, msg: Message) -> StoredSample:

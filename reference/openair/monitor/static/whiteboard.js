@@ -142,6 +142,15 @@
         el("td", { text: `${w.after_ms} ms` }), el("td", { class: "mono", text: w.id })))));
   }
 
+  function attachmentList(d) {
+    const sizes = d.slots.binarysizes;
+    if (!sizes.length) return el("p", { class: "note", id: "no-attachments", text: "None." });
+    const base = `/api/messages/${encodeURIComponent(d.whiteboard)}/${d.wbid}/attachments/`;
+    return el("ul", { id: "attachments" }, sizes.map((size, i) => el("li", {},
+      el("a", { href: base + (i + 1), download: "", text: `attachment ${i + 1}` }),
+      el("span", { text: ` ${size} bytes` }))));
+  }
+
   async function show(wbid) {
     selected = wbid;
     for (const r of document.querySelectorAll("#messages tbody tr")) {
@@ -158,6 +167,7 @@
         el("dt", { text: "receivedTime" }), el("dd", { text: s.receivedTime ? `${OA.dateTime(s.receivedTime.ms)} (${s.receivedTime.text})` : "–" }),
         el("dt", { text: "Latency" }), el("dd", { id: "detail-latency", text: OA.ms(d.latency_ms) }),
         el("dt", { text: "cc" }), el("dd", { id: "detail-cc", text: d.cc.join(", ") || "–" })),
+      el("h3", { text: "Attachments" }), attachmentList(d),
       el("h3", { text: "Wakeups it caused" }), wakeupTable(d),
       el("h3", { text: "Every slot" }), el("table", { id: "slots" }, el("tbody", {}, slotRows(s))));
     document.body.dataset.detail = String(d.wbid);

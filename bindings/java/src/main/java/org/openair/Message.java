@@ -17,7 +17,11 @@ import java.util.UUID;
  * (OA-MSG-9). {@code extras} keeps unknown slots in order (OA-MSG-5).
  *
  * <p>Threading: immutable value; safe to share between threads. Lists are copied on the way in,
- * and the binary chunks are copied both on the way in and on the way out.
+ * and the binary chunks are copied both on the way in and on the way out of {@link #binary()};
+ * {@link #binaryView(int)} reads a chunk without copying it.
+ *
+ * <p>Ids: {@link #newId()} (used by the builder) writes UUID-4 strings from one SecureRandom draw
+ * per process and a counter, not one draw per message (OA-MSG-8).
  *
  * @param type the type (a message type, or a command name)
  * @param id the id, normally a UUID (OA-MSG-8)
@@ -69,6 +73,20 @@ public record Message(
     /** The priority of a message without a priority slot (OA-MSG-6). */
     public static final double DEFAULT_PRIORITY = 2.0;
 
+    /* Set only while the library's decoder builds a message from chunks it adopts. */
+    private static final ThreadLocal<Boolean> ADOPTING = new ThreadLocal<>();
+
+    static {
+        org.openair.internal.Chunks.register((builder, chunks) -> {
+            ADOPTING.set(Boolean.TRUE);
+            try {
+                return builder.binary(chunks).build();
+            } finally {
+                ADOPTING.remove();
+            }
+        });
+    }
+
     /*
      * Normalise and check the slots.
      *
@@ -94,7 +112,7 @@ public record Message(
             throw new ApiMisuseException("wbid must not be negative: " + wbid);
         }
         extras = extras == null ? List.of() : List.copyOf(extras);
-        binary = copyChunks(binary);
+        binary = ADOPTING.get() == Boolean.TRUE ? List.copyOf(binary) : copyChunks(binary);
     }
 
     private static String orEmpty(String s) {
@@ -110,6 +128,16 @@ public record Message(
             out.add(Objects.requireNonNull(chunk, "binary chunk").clone());
         }
         return List.copyOf(out);
+    }
+
+    /**
+     * Return a read-only view of binary chunk {@code i}, without copying it.
+     *
+     * @param i the chunk's index
+     * @return the view (position 0)
+     */
+    public java.nio.ByteBuffer binaryView(int i) {
+        return java.nio.ByteBuffer.wrap(binary.get(i)).asReadOnlyBuffer();
     }
 
     /** @return copies of the binary chunks (the message keeps its own) */
@@ -176,9 +204,50 @@ public record Message(
         return new Builder(type);
     }
 
-    /** @return a fresh message id (a random UUID, OA-MSG-8) */
+    /** @return a fresh message id: a UUID-4 string, never repeated in this process (OA-MSG-8) */
     public static String newId() {
-        return UUID.randomUUID().toString();
+        return Ids.next();
+    }
+
+    /**
+     * Fresh UUID-4 strings without a SecureRandom call per message: 60 random bits drawn once
+     * per process, then a counter from a random start in the 62 bits after the variant (version
+     * 4, variant 2, as {@code UUID.randomUUID()} writes them; OA-MSG-8).
+     */
+    private static final class Ids {
+        private static final long MSB;
+        private static final java.util.concurrent.atomic.AtomicLong COUNTER;
+        private static final char[] HEX = "0123456789abcdef".toCharArray();
+
+        static {
+            UUID seed = UUID.randomUUID(); // the one SecureRandom draw
+            MSB = seed.getMostSignificantBits(); // version 4 already
+            COUNTER = new java.util.concurrent.atomic.AtomicLong(seed.getLeastSignificantBits());
+        }
+
+        private Ids() {}
+
+        static String next() {
+            long lsb = (COUNTER.getAndIncrement() & 0x3FFFFFFFFFFFFFFFL) | 0x8000000000000000L;
+            char[] out = new char[36];
+            hex(out, 0, MSB >>> 32, 8);
+            out[8] = '-';
+            hex(out, 9, MSB >>> 16, 4);
+            out[13] = '-';
+            hex(out, 14, MSB, 4);
+            out[18] = '-';
+            hex(out, 19, lsb >>> 48, 4);
+            out[23] = '-';
+            hex(out, 24, lsb, 12);
+            return new String(out);
+        }
+
+        private static void hex(char[] out, int at, long value, int digits) {
+            for (int i = digits - 1; i >= 0; i--) {
+                out[at + i] = HEX[(int) (value & 0xF)];
+                value >>>= 4;
+            }
+        }
     }
 
     @Override

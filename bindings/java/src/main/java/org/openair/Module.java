@@ -22,7 +22,9 @@ import java.util.concurrent.CompletableFuture;
  * these threads, all daemons named {@code openair-<name>-…}: one reader per connection (primary,
  * callback, and each connection the server opens to the listening port), one acceptor for the
  * listening port, one maintenance thread (reconnection, KEEPALIVE) and one dispatcher thread,
- * which alone calls the listeners of {@link Options}.
+ * which alone calls the listeners of {@link Options}. Stream handles add a reader per stream
+ * connection, and push subscriptions one reader (and, with a listener or Flow subscriber, one
+ * delivery thread) each; see {@link StreamHandle}.
  */
 public interface Module extends AutoCloseable {
 
@@ -176,6 +178,44 @@ public interface Module extends AutoCloseable {
      * @throws ApiMisuseException when a message listener is set
      */
     Optional<Delivery> nextMessage(Duration timeout);
+
+    /**
+     * Return the handle of the stream named (or, under {@code typed-streams}, typed)
+     * {@code target}; one handle per target, closed with the module (spec section 11). Its
+     * connections open on first use.
+     *
+     * @param target the stream's name or type
+     * @return the handle
+     */
+    StreamHandle stream(String target);
+
+    /**
+     * Ask CNS for every stream (GET_STREAMS, OA-STREAM-16).
+     *
+     * @return the streams, in the server's order
+     * @throws RequestFailedException when the server does not know GET_STREAMS (a legacy one)
+     */
+    List<StreamInfo> listStreams();
+
+    /**
+     * Receive stream alarms (OA-XSTREAM-6) through a companion module whose trigger is
+     * {@code pattern} (for example {@code AIR.Stream.Alarm.*}); closed with the module.
+     *
+     * @param pattern the alarm type pattern
+     * @param whiteboard the whiteboard the alarms are posted to, or "" for any
+     * @return the subscription
+     */
+    AlarmSubscription alarms(String pattern, String whiteboard);
+
+    /**
+     * Wait for the next sample of a stream the module's registration subscribes to
+     * ({@link Registration#inputStreams()}, OA-STREAM-14). The samples come as deliveries; each
+     * is acknowledged once it is queued here (the queue holds {@code inboxSize}).
+     *
+     * @param timeout how long to wait
+     * @return the sample, or empty after the timeout or once the module is closed
+     */
+    Optional<ReceivedSample> nextSample(Duration timeout);
 
     /** Close every connection and stop every thread; later requests throw CONNECTION_CLOSED. */
     @Override

@@ -13,14 +13,31 @@ import java.util.List;
  * @param triggers the triggers, in order
  * @param retrieves the retrieves, in order
  * @param allowSelfTriggering whether the module's own posts may wake it (OA-TRIG-4)
+ * @param inputStreams streams subscribed by name, type or type pattern, written as
+ *     {@code <inputstream alias="S" source="S"/>}: their samples come as deliveries
+ *     ({@link Module#nextSample}, OA-STREAM-14)
  */
 public record Registration(
-        List<Trigger> triggers, List<RetrieveSpec> retrieves, boolean allowSelfTriggering) {
+        List<Trigger> triggers, List<RetrieveSpec> retrieves, boolean allowSelfTriggering,
+        List<String> inputStreams) {
 
     /* Copy the lists. */
     public Registration {
         triggers = triggers == null ? List.of() : List.copyOf(triggers);
         retrieves = retrieves == null ? List.of() : List.copyOf(retrieves);
+        inputStreams = inputStreams == null ? List.of() : List.copyOf(inputStreams);
+    }
+
+    /**
+     * A registration without stream subscriptions.
+     *
+     * @param triggers the triggers, in order
+     * @param retrieves the retrieves, in order
+     * @param allowSelfTriggering whether the module's own posts may wake it (OA-TRIG-4)
+     */
+    public Registration(List<Trigger> triggers, List<RetrieveSpec> retrieves,
+            boolean allowSelfTriggering) {
+        this(triggers, retrieves, allowSelfTriggering, List.of());
     }
 
     /**

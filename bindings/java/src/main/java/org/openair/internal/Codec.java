@@ -50,7 +50,8 @@ public final class Codec {
     // ---------------------------------------------------------------------------- decoding
 
     /**
-     * Parse the XML of a Message or Receive frame into a message carrying {@code chunks}.
+     * Parse the XML of a Message or Receive frame into a message carrying {@code chunks}, which
+     * it adopts (not copied: pass arrays nobody else holds or changes).
      *
      * @param xml the XML bytes
      * @param chunks the binary chunks that followed it
@@ -105,10 +106,21 @@ public final class Codec {
      * @return the message
      */
     public static Message fromElement(Element el) {
+        return fromElement(el, List.of());
+    }
+
+    /**
+     * Read a nested {@code <message>} element with the attachments it lists (OA-MSG-21).
+     *
+     * @param el the element
+     * @param chunks its binary chunks
+     * @return the message
+     */
+    public static Message fromElement(Element el, List<byte[]> chunks) {
         if (!Dom.name(el).equals("message")) {
             throw invalid("expected a <message> element, found <" + el.getTagName() + ">");
         }
-        return decodeElement(el, List.of(), true);
+        return decodeElement(el, chunks, true);
     }
 
     static RemoteProtocolException invalid(String detail) {
@@ -117,7 +129,7 @@ public final class Codec {
 
     private static Message decodeElement(Element root, List<byte[]> chunks,
             boolean clampPriority) {
-        Message.Builder b = Message.builder("").id("").binary(chunks);
+        Message.Builder b = Message.builder("").id("");
         readRootAttributes(root, b, clampPriority);
         List<Slot> extras = new ArrayList<>();
         Set<String> seen = new HashSet<>();
@@ -151,7 +163,8 @@ public final class Codec {
         if (type == null || type.isEmpty()) { // OA-MSG-2
             throw invalid("the type slot is missing or empty");
         }
-        return b.type(type).extras(extras).build();
+        // The chunks come fresh from the frame reader (or a copy): adopted, not copied again.
+        return Chunks.adopt(b.type(type).extras(extras), chunks);
     }
 
     private static void setText(Message.Builder b, String name, String value) {
@@ -356,8 +369,54 @@ public final class Codec {
      *     name is not an XML name or shadows a known slot
      */
     public static byte[] encode(Message msg) {
-        return XmlWriter.write(toElement(msg, SafeXml.newDocument()))
+        return encode(msg, null);
+    }
+
+    /**
+     * Write {@code msg} in canonical form with {@code binarysizes} and {@code totalbinarysize}
+     * for chunks that are sent separately (OA-FRAME-4).
+     *
+     * @param msg the message (its own chunks are ignored when {@code chunkSizes} is given)
+     * @param chunkSizes the sizes of the chunks that follow, or null for the message's own
+     * @return the XML bytes
+     */
+    public static byte[] encode(Message msg, long[] chunkSizes) {
+        long[] sizes = chunkSizes != null ? chunkSizes : sizes(msg);
+        String fast = FastWriter.write(msg, sizes);
+        if (fast != null) {
+            return fast.getBytes(StandardCharsets.UTF_8);
+        }
+        return encodeDom(msg, sizes);
+    }
+
+    /**
+     * Write {@code msg} through the DOM (the general path; {@link FastWriter} writes the same
+     * bytes for the messages it takes).
+     *
+     * @param msg the message
+     * @param sizes the sizes of its chunks
+     * @return the XML bytes
+     */
+    static byte[] encodeDom(Message msg, long[] sizes) {
+        return XmlWriter.write(toElement(msg, SafeXml.newDocument(), sizes))
                 .getBytes(StandardCharsets.UTF_8);
+    }
+
+    /** @return true when {@code name} is the name of a slot this codec knows (any case) */
+    static boolean isKnownSlot(String name) {
+        return KNOWN.contains(Dom.fold(name));
+    }
+
+    static long[] chunkSizes(Message msg) {
+        return sizes(msg);
+    }
+
+    private static long[] sizes(Message msg) {
+        long[] sizes = new long[msg.binaryCount()];
+        for (int i = 0; i < sizes.length; i++) {
+            sizes[i] = msg.binaryView(i).remaining(); // no copy of the chunk
+        }
+        return sizes;
     }
 
     /**
@@ -368,6 +427,10 @@ public final class Codec {
      * @return the element
      */
     public static Element toElement(Message msg, Document doc) {
+        return toElement(msg, doc, sizes(msg));
+    }
+
+    private static Element toElement(Message msg, Document doc, long[] chunkSizes) {
         if (msg.type().isEmpty()) { // OA-MSG-2
             throw new ApiMisuseException("a message needs a non-empty type");
         }
@@ -388,7 +451,7 @@ public final class Codec {
         textChild(root, "cc", msg.cc());
         textChild(root, "stored", msg.stored());
         textChild(root, "isresponse", msg.isresponse());
-        middle(root, msg);
+        middle(root, msg, chunkSizes);
         root.appendChild(content(msg, doc));
         for (Slot slot : msg.extras()) {
             root.appendChild(extra(slot, doc));
@@ -396,7 +459,7 @@ public final class Codec {
         return root;
     }
 
-    private static void middle(Element root, Message msg) {
+    private static void middle(Element root, Message msg, long[] chunkSizes) {
         Document doc = root.getOwnerDocument();
         if (msg.inreplyto() != null) {
             Element irt = doc.createElement("inreplyto");
@@ -423,13 +486,12 @@ public final class Codec {
         if (!msg.netprotocol().isEmpty()) {
             textChild(root, "netprotocol", msg.netprotocol());
         }
-        List<byte[]> chunks = msg.binary();
-        if (!chunks.isEmpty()) { // OA-FRAME-4
+        if (chunkSizes.length > 0) { // OA-FRAME-4
             StringBuilder sizes = new StringBuilder();
             long total = 0;
-            for (byte[] chunk : chunks) {
-                sizes.append(sizes.length() == 0 ? "" : ",").append(chunk.length);
-                total += chunk.length;
+            for (long size : chunkSizes) {
+                sizes.append(sizes.length() == 0 ? "" : ",").append(size);
+                total += size;
             }
             textChild(root, "binarysizes", sizes.toString());
             textChild(root, "totalbinarysize", Long.toString(total));

@@ -122,10 +122,68 @@ public final class ContentObjects {
         if (Dom.isBlank(content)) {
             return List.of();
         }
-        return readCollection(root(content, "objectcollection"));
+        return readCollection(root(content, "objectcollection"), new Attachments(List.of()));
     }
 
-    private static List<Message> readCollection(Element root) {
+    /**
+     * Read a retrieve reply's results, each with the attachments it lists (OA-RET-19,
+     * OA-MSG-21).
+     *
+     * @param reply the reply
+     * @return the messages, in order
+     * @throws RemoteProtocolException CONTENT_INVALID, also when the chunks do not match
+     */
+    public static List<Message> parseMessageCollection(Message reply) {
+        Attachments chunks = new Attachments(reply.binary());
+        List<Message> out = Dom.isBlank(reply.content()) ? List.of()
+                : readCollection(root(reply.content(), "objectcollection"), chunks);
+        chunks.finish();
+        return out;
+    }
+
+    /**
+     * The chunks of an outer message handed to its nested stored copies in document order,
+     * each taking as many as its own {@code binarysizes} lists, of those sizes (OA-MSG-21).
+     */
+    private static final class Attachments {
+        private final List<byte[]> chunks;
+        private int next;
+
+        Attachments(List<byte[]> chunks) {
+            this.chunks = chunks;
+        }
+
+        List<byte[]> take(Element message) {
+            List<byte[]> out = new ArrayList<>();
+            for (Element slot : Dom.children(message)) {
+                if (!Dom.name(slot).equals("binarysizes") || Dom.isBlank(Dom.innerText(slot))) {
+                    continue;
+                }
+                for (String part : Dom.strip(Dom.innerText(slot)).split(",", -1)) {
+                    if (!UINT.matcher(part).matches()) {
+                        throw contentInvalid("nested binarysizes '" + part + "' is not a size");
+                    }
+                    long size = Long.parseLong(Dom.strip(part).replace("+", ""));
+                    if (next >= chunks.size() || chunks.get(next).length != size) {
+                        throw contentInvalid("the frame's chunks do not match the nested"
+                                + " messages' binarysizes (OA-MSG-21)");
+                    }
+                    out.add(chunks.get(next++));
+                }
+                break;
+            }
+            return out;
+        }
+
+        void finish() {
+            if (next != chunks.size()) {
+                throw contentInvalid("the frame carries " + chunks.size() + " chunk(s), the nested"
+                        + " messages list " + next + " (OA-MSG-21)");
+            }
+        }
+    }
+
+    private static List<Message> readCollection(Element root, Attachments chunks) {
         if (!Dom.name(root).equals("objectcollection")) {
             throw contentInvalid("expected <objectcollection>, found <" + Dom.name(root) + ">");
         }
@@ -139,15 +197,15 @@ public final class ContentObjects {
             if (!Dom.name(inner).equals("message")) {
                 throw contentInvalid("object " + index + " holds <" + Dom.name(inner) + ">");
             }
-            out.add(message(inner, "object " + index));
+            out.add(message(inner, "object " + index, chunks));
             index++;
         }
         return out;
     }
 
-    private static Message message(Element el, String where) {
+    private static Message message(Element el, String where, Attachments chunks) {
         try {
-            return Codec.fromElement(el);
+            return Codec.fromElement(el, chunks.take(el));
         } catch (RemoteProtocolException e) {
             throw contentInvalid(where + ": " + e.detail());
         }
@@ -186,6 +244,7 @@ public final class ContentObjects {
         Map<String, Element> objects = objects(roots.get(0));
         Element trigger = objects.get("TriggerMessage");
         Element retrieved = objects.get("RetrievedMessages");
+        Attachments chunks = new Attachments(msg.binary()); // OA-WAKE-10: trigger first
         Element phase = objects.get("PhaseSpec");
         if (trigger != null && !Dom.name(trigger).equals("message")) {
             throw contentInvalid("TriggerMessage holds <" + Dom.name(trigger) + ">");
@@ -193,9 +252,12 @@ public final class ContentObjects {
         if (phase != null && !Dom.name(phase).equals("phase")) {
             throw contentInvalid("PhaseSpec holds <" + Dom.name(phase) + ">, not a phase");
         }
-        return new Wakeup(msg,
-                trigger == null ? null : message(trigger, "TriggerMessage"),
-                retrieved == null ? List.of() : readCollection(retrieved),
+        Message triggerMessage = trigger == null ? null
+                : message(trigger, "TriggerMessage", chunks);
+        List<Message> retrievedMessages = retrieved == null ? List.of()
+                : readCollection(retrieved, chunks);
+        chunks.finish();
+        return new Wakeup(msg, triggerMessage, retrievedMessages,
                 phase == null ? "" : orEmpty(Dom.attr(phase, "lasttrigger")),
                 phase == null ? "" : phaseName(phase),
                 receivedNanos, path);
@@ -269,6 +331,15 @@ public final class ContentObjects {
         }
         if (!reg.retrieves().isEmpty()) {
             root.appendChild(retrievesElement(reg.retrieves(), doc));
+        }
+        for (String source : reg.inputStreams()) { // OA-STREAM-14
+            if (source == null || source.isEmpty()) {
+                throw new ApiMisuseException("an input stream needs a name, type or pattern");
+            }
+            Element el = doc.createElement("inputstream");
+            SafeXml.setAttr(el, "alias", source);
+            SafeXml.setAttr(el, "source", source);
+            root.appendChild(el);
         }
         return XmlWriter.write(root);
     }

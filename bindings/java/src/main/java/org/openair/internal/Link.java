@@ -222,6 +222,99 @@ final class Link {
         }
     }
 
+    /**
+     * Send a request whose binary chunks are sample parts, written from their own buffers
+     * (OA-FRAME-4); with {@code msg.noreply()} no reply is awaited (OA-MSG-15) and the returned
+     * future is null.
+     *
+     * @param msg the request, without chunks of its own
+     * @param chunks the chunks
+     * @param timeout how long to wait for a free slot
+     * @return the request as sent and its reply future (null under noreply)
+     */
+    Sent submitParts(Message msg, List<SampleCodec.Parts> chunks, Duration timeout) {
+        long[] sizes = new long[chunks.size()];
+        for (int i = 0; i < sizes.length; i++) {
+            sizes[i] = chunks.get(i).size();
+        }
+        long deadline = System.nanoTime() + timeout.toNanos();
+        synchronized (writeLock) {
+            byte[] head;
+            Sent sent;
+            synchronized (state) {
+                if (!msg.noreply()) {
+                    awaitSlot(msg, deadline);
+                } else if (closed) {
+                    throw new ConnectionClosedException("the connection to the server is closed");
+                }
+                head = session.sendRequestHead(msg, sizes);
+                sent = new Sent(session.lastSent(), msg.noreply() ? null : new CompletableFuture<>());
+                if (sent.reply() != null) {
+                    waiting.addLast(sent.reply());
+                }
+            }
+            writeParts(head, chunks);
+            return sent;
+        }
+    }
+
+    /**
+     * Send one sample as a bare {@code BinaryM} frame (OA-STREAM-11); the stream answers it.
+     *
+     * @param chunk the sample's chunk
+     * @param timeout how long to wait for a free slot
+     * @return the frame (as a message named BinaryM) and its reply future
+     */
+    Sent submitBinary(SampleCodec.Parts chunk, Duration timeout) {
+        long deadline = System.nanoTime() + timeout.toNanos();
+        Message what = Message.builder("BinaryM").id("").build();
+        synchronized (writeLock) {
+            byte[] head;
+            Sent sent;
+            synchronized (state) {
+                awaitSlot(what, deadline);
+                head = session.sendBinaryHead(chunk.size());
+                sent = new Sent(what, new CompletableFuture<>());
+                waiting.addLast(sent.reply());
+            }
+            writeParts(head, List.of(chunk));
+            return sent;
+        }
+    }
+
+    /* Small frames go as one array (one write, one packet); big payloads from their buffers. */
+    private void writeParts(byte[] head, List<SampleCodec.Parts> chunks) {
+        long total = head.length;
+        for (SampleCodec.Parts p : chunks) {
+            total += p.size();
+        }
+        if (total < SampleCodec.JOIN_BELOW) {
+            byte[] all = new byte[(int) total];
+            System.arraycopy(head, 0, all, 0, head.length);
+            int at = head.length;
+            for (SampleCodec.Parts p : chunks) {
+                byte[] c = p.join();
+                System.arraycopy(c, 0, all, at, c.length);
+                at += c.length;
+            }
+            write(all);
+            return;
+        }
+        try {
+            out.write(head);
+            for (SampleCodec.Parts p : chunks) {
+                out.write(p.length());
+                p.payload().writePayload(out); // from the caller's buffer
+                out.write(p.tail());
+            }
+            out.flush();
+            lastTraffic = System.nanoTime();
+        } catch (IOException e) {
+            abort();
+            throw new ConnectionClosedException("write failed: " + e.getMessage());
+        }
+    }
+
     private void write(byte[] data) {
         try {
             out.write(data);

@@ -3,6 +3,8 @@ package org.openair.internal;
 import java.lang.System.Logger.Level;
 import java.time.Duration;
 import java.util.ArrayList;
+import java.util.HashMap;
+import java.util.Map;
 import java.util.List;
 import java.util.Optional;
 import java.util.Set;
@@ -23,7 +25,11 @@ import org.openair.ConnectionListener;
 import org.openair.Delivery;
 import org.openair.DeliveryPath;
 import org.openair.ErrorCode;
+import org.openair.AlarmSubscription;
 import org.openair.Message;
+import org.openair.ReceivedSample;
+import org.openair.StreamHandle;
+import org.openair.StreamInfo;
 import org.openair.Module;
 import org.openair.OpenAirException;
 import org.openair.Options;
@@ -52,6 +58,8 @@ public final class ModuleImpl implements Module {
     private static final int DEFAULT_MAX_IN_FLIGHT = 256; // OA-LIM-5
     private static final Wakeup CLOSED_WAKEUP = new Wakeup(
             Message.builder("closed").build(), null, List.of(), "", "", 0, DeliveryPath.CALLBACK);
+    private static final ReceivedSample CLOSED_SAMPLE = new ReceivedSample("",
+            org.openair.DataSample.of(new byte[0]), 0, 0);
     private static final Delivery CLOSED_DELIVERY =
             new Delivery(Message.builder("closed").build(), 0, DeliveryPath.CALLBACK);
 
@@ -74,11 +82,16 @@ public final class ModuleImpl implements Module {
     private volatile Registration registration;
     private final AtomicLong undecodable = new AtomicLong(); // OA-MSG-20
     private final AtomicLong dropped = new AtomicLong();
+    private volatile int window = 1;
+    private final BlockingQueue<ReceivedSample> samples;
+    private final Map<String, StreamHandleImpl> streams = new HashMap<>(); // guarded by lock
+    private final List<AlarmSubscriptionImpl> alarmSubs = new ArrayList<>(); // guarded by lock
 
     private ModuleImpl(Options o) {
         this.o = o;
         this.name = o.name();
         this.messages = new LinkedBlockingQueue<>(o.inboxSize());
+        this.samples = new LinkedBlockingQueue<>(o.inboxSize());
         this.dispatcher = new Dispatcher(name, o.inboxSize(), this::reportListenerFailure);
         this.listener = new Listener(name, this::handle, this::newSession, o.clock(),
                 this::reportError, this::deliveryDropped);
@@ -183,6 +196,7 @@ public final class ModuleImpl implements Module {
         long limit = caps == null ? DEFAULT_MAX_IN_FLIGHT
                 : caps.limit("max-in-flight").orElse(DEFAULT_MAX_IN_FLIGHT);
         int window = using.contains("pipelining") ? (int) Math.max(1, Math.min(limit, 4096)) : 1;
+        this.window = window;
         l.configure(window, extensions); // OA-SESS-17, OA-SESS-18
     }
 
@@ -297,6 +311,20 @@ public final class ModuleImpl implements Module {
             lock.notifyAll();
         }
         maintenance.shutdownNow();
+        List<StreamHandleImpl> handles;
+        List<AlarmSubscriptionImpl> alarmsOpen;
+        synchronized (lock) {
+            handles = new ArrayList<>(streams.values());
+            alarmsOpen = new ArrayList<>(alarmSubs);
+            streams.clear();
+            alarmSubs.clear();
+        }
+        for (StreamHandleImpl h : handles) {
+            h.close();
+        }
+        for (AlarmSubscriptionImpl a : alarmsOpen) {
+            a.close();
+        }
         if (l != null) {
             l.close();
         }
@@ -304,6 +332,8 @@ public final class ModuleImpl implements Module {
         wakeups.offer(CLOSED_WAKEUP); // wakes a waiting consumer
         messages.poll();
         messages.offer(CLOSED_DELIVERY);
+        samples.poll();
+        samples.offer(CLOSED_SAMPLE);
         dispatcher.close();
     }
 
@@ -322,6 +352,10 @@ public final class ModuleImpl implements Module {
                 } else {
                     wakeups.put(w); // a full inbox holds the acknowledgement back
                 }
+                return null;
+            }
+            if (msg.type().equals("DATASAMPLE")) { // OA-STREAM-14: a subscribed stream
+                samples.put(StreamWire.receivedOf(msg, receivedNanos)); // else RECEIVE_ERROR
                 return null;
             }
             Delivery d = new Delivery(msg, receivedNanos, path);
@@ -559,7 +593,7 @@ public final class ModuleImpl implements Module {
         Message msg = Message.builder(kind).sender(name).to(to).xmlContent(content).build();
         Message[] r = waitLink().request(msg, o.requestTimeout());
         expect(r, kind + ".Success"); // OA-RET-7
-        return ContentObjects.parseMessageCollection(r[1].content());
+        return ContentObjects.parseMessageCollection(r[1]); // with attachments (OA-RET-19)
     }
 
     @Override
@@ -575,6 +609,86 @@ public final class ModuleImpl implements Module {
         Duration rtt = Duration.ofNanos(System.nanoTime() - start);
         expect(r, "PING_SUCCESS"); // OA-SESS-10
         return rtt;
+    }
+
+    // ---------------------------------------------------------------------------- streams
+
+    /** @return the options the module was made with */
+    Options options() {
+        return o;
+    }
+
+    /**
+     * A requester session for a push connection, with {@code accepted} as its extensions.
+     *
+     * @param accepted the extensions this connection declares
+     * @return the session
+     */
+    Session newStreamSession(Set<String> accepted) {
+        Session s = newSession(Session.Role.REQUESTER);
+        s.extensions(accepted);
+        return s;
+    }
+
+    /**
+     * Open a requester connection for a stream handle, set up like the primary one (window,
+     * extensions in use).
+     *
+     * @param what names the reader thread
+     * @return the link
+     */
+    Link openStreamLink(String what) {
+        if (isClosed()) {
+            throw new ConnectionClosedException("the module is closed");
+        }
+        Link l = Link.open(o.host(), o.port(), o.connectTimeout(),
+                newSession(Session.Role.REQUESTER), "openair-" + name + "-" + what,
+                (link, cause) -> LOG.log(Level.DEBUG, name + ": stream connection ended"
+                        + (cause == null ? "" : ": " + cause.getMessage())));
+        l.configure(window, extensions);
+        return l;
+    }
+
+    @Override
+    public StreamHandle stream(String target) {
+        synchronized (lock) {
+            if (closed) {
+                throw new ConnectionClosedException("the module is closed");
+            }
+            return streams.computeIfAbsent(target, t -> new StreamHandleImpl(this, t));
+        }
+    }
+
+    @Override
+    public List<StreamInfo> listStreams() {
+        Message msg = Message.builder("GET_STREAMS").sender(name).to(CNS).build();
+        Message[] r = waitLink().request(msg, o.requestTimeout());
+        expect(r, "STREAMS"); // OA-STREAM-16
+        return StreamWire.streamsOf(r[1]);
+    }
+
+    @Override
+    public AlarmSubscription alarms(String pattern, String whiteboard) {
+        AlarmSubscriptionImpl a = new AlarmSubscriptionImpl(o, pattern,
+                whiteboard == null ? "" : whiteboard);
+        synchronized (lock) {
+            if (!closed) {
+                alarmSubs.add(a);
+                return a;
+            }
+        }
+        a.close();
+        throw new ConnectionClosedException("the module is closed");
+    }
+
+    @Override
+    public Optional<ReceivedSample> nextSample(Duration timeout) {
+        ReceivedSample s = poll(samples, timeout);
+        if (s == CLOSED_SAMPLE) {
+            samples.offer(CLOSED_SAMPLE);
+            return Optional.empty();
+        }
+        return Optional.ofNullable(s);
     }
 
     // -------------------------------------------------------------------------- accessors

@@ -261,6 +261,68 @@ public final class Session {
     }
 
     /**
+     * Return the header and XML of request {@code msg} whose binary chunks, of the sizes given,
+     * the caller sends right after these bytes (OA-FRAME-4); {@code msg} itself carries none.
+     * Lets a writer send sample payloads from its own buffers, uncopied.
+     *
+     * @param msg the request, without chunks
+     * @param chunkSizes the sizes of the chunks that follow, in order
+     * @return the frame's header and XML
+     */
+    public byte[] sendRequestHead(Message msg, long[] chunkSizes) {
+        checkSend(msg);
+        transition(Action.SEND_REQUEST);
+        Message stamped = stamp(msg);
+        byte[] data = new Frame(Frame.Tag.MESSAGE, Codec.encode(stamped, chunkSizes), List.of())
+                .encode();
+        FrameTap t = tap;
+        data = t == null ? data : t.rewrite(stamped, Frame.Tag.MESSAGE, data);
+        lastSent = stamped;
+        if (!stamped.noreply()) {
+            inFlight.addLast(stamped.id());
+        }
+        return data;
+    }
+
+    /**
+     * Return the 12-byte header of a {@code BinaryM} frame whose one chunk, of {@code size}
+     * bytes, the caller sends next (OA-FRAME-5). It is a request: the stream answers it
+     * DATA_ACCEPTED with an empty {@code isresponse} (OA-STREAM-11), paired in order.
+     *
+     * @param size the chunk's size
+     * @return the header
+     */
+    public byte[] sendBinaryHead(long size) {
+        if (size > 0xFFFFFFFFL) {
+            throw new ApiMisuseException("a BinaryM chunk of " + size + " bytes is too big");
+        }
+        if (state == State.REQUESTER && inFlight.size() >= window) {
+            throw new ApiMisuseException(window + " request(s) already in flight"); // OA-SESS-18
+        }
+        transition(Action.SEND_REQUEST);
+        byte[] head = new byte[FrameReader.HEADER_SIZE];
+        System.arraycopy(Frame.Tag.BINARY.wire().getBytes(java.nio.charset.StandardCharsets
+                .US_ASCII), 0, head, 0, 7);
+        for (int i = 0; i < 4; i++) {
+            head[8 + i] = (byte) (size >>> (8 * i));
+        }
+        lastSent = Message.builder("BinaryM").id("").build();
+        inFlight.addLast(""); // answered with an empty isresponse
+        return head;
+    }
+
+    private void checkSend(Message msg) {
+        if (state == State.REQUESTER) {
+            if (msg.noreply() && !extensions.contains("noreply")) {
+                throw new ApiMisuseException("noreply needs the noreply extension"); // OA-GEN-2
+            }
+            if (!msg.noreply() && inFlight.size() >= window) {
+                throw new ApiMisuseException(window + " request(s) already in flight"); // OA-SESS-18
+            }
+        }
+    }
+
+    /**
      * Return the {@code Receive} frame that makes this a callback connection (OA-SESS-7); no
      * reply follows, and from then on the server is the requester (OA-SESS-28).
      *

@@ -90,34 +90,61 @@ public final class XmlWriter {
      * @param sb where the escaped text goes
      */
     public static void text(String s, StringBuilder sb) {
-        checked(s);
-        for (int i = 0; i < s.length(); i++) {
-            char c = s.charAt(i);
-            switch (c) {
-                case '&' -> sb.append("&amp;");
-                case '<' -> sb.append("&lt;");
-                case '>' -> sb.append("&gt;");
-                case '\r' -> sb.append("&#13;");
-                default -> sb.append(c);
-            }
-        }
+        escape(s, sb, false);
+    }
+
+    /**
+     * Escape an attribute value: {@code & < > "} and TAB, LF, CR.
+     *
+     * @param s the value
+     * @param sb where the escaped value goes
+     */
+    public static void attrValue(String s, StringBuilder sb) {
+        escape(s, sb, true);
     }
 
     private static void attribute(String s, StringBuilder sb) {
-        checked(s);
-        for (int i = 0; i < s.length(); i++) {
+        escape(s, sb, true);
+    }
+
+    /* One pass: plain runs are appended whole; a character XML cannot carry is refused. */
+    private static void escape(String s, StringBuilder sb, boolean attr) {
+        int run = 0;
+        int n = s.length();
+        for (int i = 0; i < n; i++) {
             char c = s.charAt(i);
-            switch (c) {
-                case '&' -> sb.append("&amp;");
-                case '<' -> sb.append("&lt;");
-                case '>' -> sb.append("&gt;");
-                case '"' -> sb.append("&quot;");
-                case '\t' -> sb.append("&#9;");
-                case '\n' -> sb.append("&#10;");
-                case '\r' -> sb.append("&#13;");
-                default -> sb.append(c);
+            String rep;
+            if (c >= 0x3F && c <= 0xD7FF) { // the common case: nothing to escape or check
+                continue;
+            } else if (c == '&') {
+                rep = "&amp;";
+            } else if (c == '<') {
+                rep = "&lt;";
+            } else if (c == '>') {
+                rep = "&gt;";
+            } else if (c == '\r') {
+                rep = "&#13;";
+            } else if (attr && c == '"') {
+                rep = "&quot;";
+            } else if (attr && c == '\t') {
+                rep = "&#9;";
+            } else if (attr && c == '\n') {
+                rep = "&#10;";
+            } else if (c >= 0x20 && c <= 0xD7FF || c == '\t' || c == '\n'
+                    || c >= 0xE000 && c <= 0xFFFD) {
+                continue;
+            } else if (Character.isHighSurrogate(c) && i + 1 < n
+                    && Character.isLowSurrogate(s.charAt(i + 1))) {
+                i++;
+                continue;
+            } else {
+                checked(s); // OA-MSG-14: throws, naming the character
+                continue;
             }
+            sb.append(s, run, i).append(rep);
+            run = i + 1;
         }
+        sb.append(s, run, n);
     }
 
     /**

@@ -21,6 +21,7 @@ import org.openair.OpenAir;
 import org.openair.OpenAirException;
 import org.openair.Options;
 import org.openair.Registration;
+import org.openair.RequestFailedException;
 import org.openair.RequestTimeoutException;
 import org.openair.RetrieveSpec;
 import org.openair.Trigger;
@@ -44,6 +45,7 @@ public final class ShimMain {
     public static final String LIBRARY = "openair-java";
 
     private final PrintStream out;
+    private final ShimStreams streams = new ShimStreams(this::module);
     private Module module;
     private boolean closed;
 
@@ -128,6 +130,13 @@ public final class ShimMain {
             Map<String, Object> fields = run(String.valueOf(cmd.get("cmd")), cmd);
             answer.put("ok", true);
             answer.putAll(fields);
+        } catch (RequestFailedException e) {
+            answer.put("ok", false);
+            // a stream's failure reply names its condition (SAMPLE_UNKNOWN, LOCK_UNKNOWN, …)
+            boolean media = String.valueOf(cmd.get("cmd")).startsWith("stream-");
+            String code = media ? e.condition().map(Enum::name).orElse(e.code().name())
+                    : e.code().name();
+            answer.put("error", error(code, e.getMessage()));
         } catch (OpenAirException e) {
             answer.put("ok", false);
             answer.put("error", error(e.code().name(), e.getMessage()));
@@ -161,12 +170,17 @@ public final class ShimMain {
                 return awaitWakeup(cmd);
             case "close":
                 closed = true;
+                streams.close();
                 if (module != null) {
                     module.close();
                 }
                 return Map.of();
             default:
-                throw new ApiMisuseException("unknown command '" + name + "'");
+                Map<String, Object> answer = streams.run(name, cmd);
+                if (answer == null) {
+                    throw new ApiMisuseException("unknown command '" + name + "'");
+                }
+                return answer;
         }
     }
 
@@ -240,8 +254,12 @@ public final class ShimMain {
         for (Object r : list(cmd, "retrieves")) {
             retrieves.add(spec(obj(r)));
         }
+        List<String> inputs = new ArrayList<>();
+        for (Object source : list(cmd, "streams")) { // OA-STREAM-14
+            inputs.add(source.toString());
+        }
         module().subscribe(new Registration(triggers, retrieves,
-                bool(cmd, "allowselftriggering", false)));
+                bool(cmd, "allowselftriggering", false), inputs));
         return Map.of();
     }
 
@@ -270,6 +288,11 @@ public final class ShimMain {
         } else {
             b.content(content);
         }
+        List<byte[]> attachments = new ArrayList<>();
+        for (Object a : list(cmd, "attachments")) {
+            attachments.add(ShimStreams.base64(a));
+        }
+        b.binary(attachments); // OA-FRAME-4: the post's attachments
         Message sent = noreply ? m.postNoReply(b.build()) : m.post(b.build());
         Map<String, Object> out = new LinkedHashMap<>();
         out.put("id", sent.id());
@@ -324,6 +347,11 @@ public final class ShimMain {
         o.put("wbid", m.wbid());
         o.put("content", m.content());
         o.put("xml", m.contentIsXml());
+        List<Object> attachments = new ArrayList<>();
+        for (byte[] chunk : m.binary()) {
+            attachments.add(java.util.Base64.getEncoder().encodeToString(chunk));
+        }
+        o.put("attachments", attachments);
         return o;
     }
 

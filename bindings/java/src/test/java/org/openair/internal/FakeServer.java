@@ -137,6 +137,9 @@ final class FakeServer implements AutoCloseable {
 
     private void answer(Conn c, Message req) throws IOException {
         Behaviour b = behaviours.get(req.type());
+        if (b == null) { // a waiting command carries its timeout: "WAIT_FOR_FIRST_AFTERID 500"
+            b = behaviours.get(req.type().split(" ", 2)[0]);
+        }
         if (b != null) {
             b.respond(c, req);
             return;
@@ -203,7 +206,10 @@ final class FakeServer implements AutoCloseable {
         }
 
         private void onFrame(Frame f) throws IOException {
-            Message m = Codec.decode(f.xml());
+            Message m = f.tag() == Frame.Tag.BINARY
+                    ? Message.builder("BinaryM").id("").binary(f.chunks()).build()
+                    : Codec.decode(f.xml(), f.chunks(), SafeXml.DEFAULT_MAX_BYTES,
+                            SafeXml.DEFAULT_MAX_DEPTH);
             Received r = new Received(f.tag(), m, this);
             synchronized (history) {
                 history.add(r);
@@ -221,7 +227,7 @@ final class FakeServer implements AutoCloseable {
         }
 
         synchronized void send(Message m) throws IOException {
-            sendRaw(new Frame(Frame.Tag.MESSAGE, Codec.encode(m), List.of()).encode());
+            sendRaw(new Frame(Frame.Tag.MESSAGE, Codec.encode(m), m.binary()).encode());
         }
 
         synchronized void sendRaw(byte[] data) throws IOException {

@@ -41,7 +41,14 @@ public final class FrameFaults {
                 return new byte[0];
             }),
             "accept-malformed", answered("RECEIVE_ERROR", (m, tag) ->
-                    encode(m.toBuilder().type("RECEIVE_ACCEPT").build(), tag)));
+                    encode(m.toBuilder().type("RECEIVE_ACCEPT").build(), tag)),
+            // Streams: ADD_SAMPLE without binarysizes (its chunk still follows the XML).
+            "add-sample-no-binarysizes", (m, tag, frame) -> m.type().equals("ADD_SAMPLE")
+                    ? withoutSizes(frame) : frame,
+            // Streams: never acknowledge a pushed DATASAMPLE (answered on a push connection's
+            // reader thread, openair-<module>-push-<stream>; registration samples still are).
+            "push-no-ack", (m, tag, frame) -> m.type().equals("RECEIVE_ACCEPT")
+                    && Thread.currentThread().getName().contains("-push-") ? new byte[0] : frame);
 
     private static volatile String markedType;
 
@@ -89,6 +96,16 @@ public final class FrameFaults {
      */
     private static Fault answered(String type, BiFunction<Message, Frame.Tag, byte[]> rewrite) {
         return (m, tag, frame) -> m.type().equals(type) ? rewrite.apply(m, tag) : frame;
+    }
+
+    /** Drop binarysizes from the XML of a frame head (the library writes the chunks next). */
+    private static byte[] withoutSizes(byte[] head) {
+        String xml = new String(head, FrameReader.HEADER_SIZE, head.length
+                - FrameReader.HEADER_SIZE, StandardCharsets.UTF_8)
+                .replaceAll("<binarysizes>[^<]*</binarysizes><totalbinarysize>[^<]*"
+                        + "</totalbinarysize>", "");
+        return new Frame(Frame.Tag.MESSAGE, xml.getBytes(StandardCharsets.UTF_8), List.of())
+                .encode();
     }
 
     private static byte[] lowercasePostedTime(Message m, Frame.Tag tag, byte[] frame) {

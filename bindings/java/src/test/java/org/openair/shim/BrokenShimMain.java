@@ -25,7 +25,8 @@ import org.openair.internal.Json;
  *
  * <pre>
  *   java -jar target/openair-shim-broken.jar --break NAME   the shim (openair-shim/1), NAME broken
- *   java -jar target/openair-shim-broken.jar --list         every NAME, one a line
+ *   java -jar target/openair-shim-broken.jar --list         every NAME but the stream ones
+ *   java -jar target/openair-shim-broken.jar --list-streams the stream breaks' NAMEs
  * </pre>
  *
  * <p>Shim-layer breaks rewrite a command before {@link ShimMain} sees it or an answer before it
@@ -94,7 +95,57 @@ public final class BrokenShimMain {
             }
             return c;
         }, SAME));
+        // Streams: report a wait whose timeout passed as SAMPLE_UNKNOWN instead of "none".
+        b.put("wait-timeout-error", new Break(SAME, (cmd, a) -> cmd.equals("stream-wait")
+                && Boolean.TRUE.equals(a.get("ok")) && a.get("sample") == null
+                ? failure(a, "SAMPLE_UNKNOWN", "no sample before the timeout") : a));
+        // Streams: report the end of a push connection as a timeout.
+        b.put("push-end-silent", new Break(SAME, (cmd, a) -> cmd.equals("stream-next")
+                && Boolean.FALSE.equals(a.get("ok"))
+                && "CONNECTION_CLOSED".equals(obj(a.get("error")).get("code"))
+                ? failure(a, "REQUEST_TIMEOUT", "no sample within the timeout") : a));
+        // Streams: write builtin:timestamp and builtin:seq before the writer's parameters.
+        b.put("builtins-first", new Break((cmd, c) -> cmd.equals("stream-add")
+                ? builtinsFirst(c) : c, SAME));
+        // Streams: acknowledge the registration's samples (the library does) but never report them.
+        b.put("registration-samples-lost", new Break(SAME, (cmd, a) -> cmd.equals("await-sample")
+                && Boolean.TRUE.equals(a.get("ok"))
+                ? failure(a, "REQUEST_TIMEOUT", "no sample within the timeout") : a));
         return b;
+    }
+
+    /** The stream breaks (listed by {@code --list-streams}, not by {@code --list}). */
+    static final List<String> STREAM_BREAKS = List.of("push-no-ack", "wait-timeout-error",
+            "push-end-silent", "builtins-first", "registration-samples-lost",
+            "add-sample-no-binarysizes");
+
+    /** A failure answer in place of {@code answer}. */
+    private static Map<String, Object> failure(Map<String, Object> answer, String code,
+            String message) {
+        Map<String, Object> out = new LinkedHashMap<>();
+        out.put("seq", answer.get("seq"));
+        out.put("ok", false);
+        out.put("error", Map.of("code", code, "message", message));
+        return out;
+    }
+
+    /** stream-add with timestamp_ms and sample_seq turned into parameters before the writer's. */
+    private static Map<String, Object> builtinsFirst(Map<String, Object> c) {
+        List<Object> params = new ArrayList<>();
+        if (c.get("timestamp_ms") != null) {
+            params.add(List.of("builtin:timestamp", String.valueOf(c.get("timestamp_ms"))));
+        }
+        if (c.get("sample_seq") != null) {
+            params.add(List.of("builtin:seq", String.valueOf(c.get("sample_seq"))));
+        }
+        if (c.get("params") != null) {
+            params.addAll(list(c.get("params")));
+        }
+        Map<String, Object> out = new LinkedHashMap<>(c);
+        out.remove("timestamp_ms");
+        out.remove("sample_seq");
+        out.put("params", params);
+        return out;
     }
 
     /** A break that rewrites the successful answers to {@code command} only. */
@@ -133,7 +184,8 @@ public final class BrokenShimMain {
     }
 
     private static int usage() {
-        System.err.println("usage: openair-shim-broken --break NAME | --list\nNAME is one of: "
+        System.err.println("usage: openair-shim-broken --break NAME | --list | --list-streams"
+                + "\nNAME is one of: "
                 + String.join(" ", names()));
         return 2;
     }
@@ -146,8 +198,10 @@ public final class BrokenShimMain {
      */
     public static void main(String[] args) throws IOException {
         PrintStream stdout = new PrintStream(System.out, false, StandardCharsets.UTF_8);
-        if (args.length == 1 && args[0].equals("--list")) {
-            names().forEach(stdout::println);
+        if (args.length == 1 && (args[0].equals("--list") || args[0].equals("--list-streams"))) {
+            boolean streams = args[0].equals("--list-streams");
+            names().stream().filter(n -> STREAM_BREAKS.contains(n) == streams)
+                    .forEach(stdout::println);
             stdout.flush();
             System.exit(0);
         }

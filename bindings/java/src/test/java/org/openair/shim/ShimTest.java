@@ -70,11 +70,13 @@ class ShimTest {
     @Test
     void messageObjectsHaveEveryField() {
         Message m = Message.builder("T").id("i").posted(AirTime.of(5, 6)).wbid(3L)
-                .priority(1.5).build();
+                .priority(1.5).binary(List.of(new byte[] {1, 2, 3, 4}, new byte[0])).build();
         Map<String, Object> o = ShimMain.message(m);
         assertEquals(List.of("type", "id", "from", "to", "cc", "stored", "isresponse", "posted",
-                "received", "priority", "wbid", "content", "xml"), List.copyOf(o.keySet()));
+                "received", "priority", "wbid", "content", "xml", "attachments"),
+                List.copyOf(o.keySet()));
         assertEquals(List.of(5L, 6L), o.get("posted"));
         assertEquals(3L, o.get("wbid"));
+        assertEquals(List.of("AQIDBA==", ""), o.get("attachments")); // base64, in order
     }
 }

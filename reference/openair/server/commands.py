@@ -13,7 +13,7 @@ import random
 from collections.abc import Iterator, Mapping
 from datetime import UTC, datetime
 
-from openair.content import Dictionary, Registration
+from openair.content import Dictionary, Phase
 from openair.errors import OpenAIRError
 from openair.fastcodec import message_with
 from openair.message import Message
@@ -223,9 +223,8 @@ def entry_reply(req: Message, config: ServerConfig, *, now_ns: int) -> Message:
     return reply(req, "ENTRY", sender="Config", now_ns=now_ns, content=module.spec_xml, xml=True)
 
 
-def current_phase_reply(req: Message, reg: Registration | None, *, now_ns: int) -> Message:
-    """Answer CurrentPhase with the phase in force for the requester, or nothing (OA-SESS-13)."""
-    phase = reg.active_phase if reg is not None else None
+def current_phase_reply(req: Message, phase: Phase | None, *, now_ns: int) -> Message:
+    """Answer CurrentPhase with the requester's phase in force, or nothing (OA-SESS-13)."""
     if phase is None:
         return reply(req, "Psyclone.Module.CurrentPhase", sender="Psyclone", now_ns=now_ns)
     content = encode_phase(phase, module=req.sender)

@@ -121,6 +121,7 @@ class ModuleConfig:
     name: str
     registration: Registration
     spec_xml: str
+    internal: str = ""  # OA-CONF-8: `package.module:name` of an internal module's code, or ""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -313,7 +314,10 @@ def _module(el: etree._Element, shown: str, max_triggers: int) -> ModuleConfig:
         raise ConfigError(f"{shown}:{el.sourceline}: module {name!r}: {exc}") from None
     xml = etree.tostring(el, encoding="unicode", with_tail=False)
     return ModuleConfig(
-        name=name, registration=replace(reg, form=RegistrationForm.CONFIG), spec_xml=xml
+        name=name,
+        registration=replace(reg, form=RegistrationForm.CONFIG),
+        spec_xml=xml,
+        internal=el.get("internal", "").strip(),  # OA-CONF-8; psyspec.xsd checks the form
     )
 
 

@@ -865,7 +865,8 @@ class Router:
 
     def _current_phase(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
         reg = self.registration(msg.sender)
-        return Outcome(replies=(cmd.current_phase_reply(msg, reg, now_ns=now_ns),))  # OA-SESS-13
+        phase = self._phase_in_force(msg.sender, reg)  # OA-REG-14 under `contexts`
+        return Outcome(replies=(cmd.current_phase_reply(msg, phase, now_ns=now_ns),))  # OA-SESS-13
 
     def _get_id(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
         answer = cmd.reply(msg, "ID", sender="AIRServer", now_ns=now_ns, content=self.server_id)

@@ -8,11 +8,14 @@ when that package provides them; a missing one is announced and skipped.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import difflib
 import importlib
+import os
 import sys
 import textwrap
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Any, TextIO, TypeVar
 
@@ -45,6 +48,7 @@ from openair_conformance.model import (
     Verdict,
 )
 from openair_conformance.registry import RegisteredCase, all_cases, select_cases
+from openair_conformance.untestable import NOT_CHECKED
 
 __all__ = [
     "EXIT_CODES",
@@ -53,6 +57,7 @@ __all__ = [
     "load_reporters",
     "parse_fail_on",
     "report_options",
+    "reports_failed",
 ]
 
 EXIT_CODES = """\b
@@ -60,7 +65,10 @@ Exit codes:
   0  no result has a verdict in the --fail-on set
   1  some result has a verdict in the --fail-on set
   2  usage error: bad option, unreadable expectations file, no case selected
-  3  cannot connect to the target, or it does not answer PING"""
+  3  cannot connect to the target, or it does not answer PING
+  4  a report asked for (--html, --json, --junit, report -o) could not be written
+     (a missing folder is created, and said on stderr)
+  5  the target died during the run (stopped answering; see --on-target-death)"""
 
 _REPORTERS = "openair_conformance.reporters"
 _F = TypeVar("_F", bound=Callable[..., Any])
@@ -104,7 +112,7 @@ def parse_fail_on(text: str) -> frozenset[Verdict]:
 
 
 def report_options(command: _F) -> _F:
-    """Add --fail-on, --junit, --json and --html (shared by conform run and conform-client)."""
+    """Add --fail-on, --junit, --json, --html and --html-traces (conform run and conform-client)."""
     options = (
         click.option(
             "--fail-on",
@@ -125,6 +133,13 @@ def report_options(command: _F) -> _F:
         ),
         click.option(
             "--html", type=click.Path(dir_okay=False, path_type=Path), help="Write the HTML report."
+        ),
+        click.option(
+            "--html-traces",
+            type=click.Choice(["failing", "all"]),
+            default="failing",
+            show_default=True,
+            help="Traces in the HTML report: of results that are not passes, or of every result.",
         ),
     )
     for option in reversed(options):  # the first listed is applied last: it shows first
@@ -150,6 +165,7 @@ def load_reporters(
     junit: Path | None = None,
     json_path: Path | None = None,
     html: Path | None = None,
+    html_traces: str = "failing",
 ) -> list[Reporter]:
     """Instantiate the console reporter and those asked for; skip (and say) what is missing."""
     reporters: list[Reporter] = []
@@ -168,8 +184,32 @@ def load_reporters(
             continue
         module = _import_reporter(module_name, option)
         if module is not None:
-            reporters.append(getattr(module, class_name)(path))
+            extra = {"traces": html_traces} if option == "--html" else {}
+            reporters.append(getattr(module, class_name)(path, **extra))
     return reporters
+
+
+def reports_failed(reporters: Sequence[Reporter]) -> bool:
+    """Whether a file reporter could not write its report (exit code 4)."""
+    return any(getattr(reporter, "failed", False) for reporter in reporters)
+
+
+@contextlib.contextmanager
+def _hypothesis_home() -> Iterator[None]:
+    """Keep hypothesis' files (FUZZ-001) out of the working folder: under the user's cache.
+
+    `$HYPOTHESIS_STORAGE_DIRECTORY` still wins; the variable is set only while the suite runs.
+    """
+    key = "HYPOTHESIS_STORAGE_DIRECTORY"
+    if os.environ.get(key):
+        yield
+        return
+    cache = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    os.environ[key] = str(Path(cache, "openair", "hypothesis"))
+    try:
+        yield
+    finally:
+        os.environ.pop(key, None)
 
 
 class _FallbackConsole:
@@ -200,7 +240,7 @@ def _fuzz_available() -> bool:
     try:
         importlib.import_module("openair_conformance.fuzz")
     except ModuleNotFoundError as exc:
-        if exc.name != "openair_conformance.fuzz":
+        if exc.name not in ("openair_conformance.fuzz", "hypothesis"):  # hypothesis: [fuzz]
             raise
         return False
     return True
@@ -226,9 +266,10 @@ def _fuzz_available() -> bool:
     "-j",
     "--jobs",
     type=click.IntRange(min=1),
-    default=1,
+    default=4,
     show_default=True,
-    help="Run N non-serial cases at a time; serial cases run alone afterwards.",
+    help="Run N non-serial cases at a time (their names, types and whiteboard contents are "
+    "their own); serial cases run alone afterwards.",
 )
 @click.option(
     "--timeout-scale",
@@ -258,6 +299,25 @@ def _fuzz_available() -> bool:
     metavar="NAME",
     help="The stream the stream cases use (not applicable when it does not resolve).",
 )
+@click.option(
+    "--order",
+    type=click.Choice(["registry", "random"]),
+    default="registry",
+    show_default=True,
+    help="Start cases in ID order, or shuffled (with --seed; a drawn seed is reported).",
+)
+@click.option("--seed", type=int, metavar="N", help="Seed of --order random.")
+@click.option(
+    "--on-target-death",
+    type=click.Choice(["stop", "continue", "restart-cmd"]),
+    default="stop",
+    show_default=True,
+    help="When the target stops answering: start no further case, go on, or run "
+    "--restart-cmd, wait until it answers and run the interrupted case once more.",
+)
+@click.option(
+    "--restart-cmd", metavar="CMD", default="", help="Shell command restarting the target."
+)
 def run_command(
     target: str,
     cases: tuple[str, ...],
@@ -269,10 +329,15 @@ def run_command(
     junit: Path | None,
     json_path: Path | None,
     html: Path | None,
+    html_traces: str,
     verbose: bool,
     fuzz_examples: int | None,
     replay: str | None,
     stream: str,
+    order: str,
+    seed: int | None,
+    on_target_death: str,
+    restart_cmd: str,
 ) -> None:
     """Run the suite against TARGET (HOST:PORT; the port defaults to 10000)."""
     try:
@@ -285,10 +350,8 @@ def run_command(
             load_expectations(expectations)
         except ExpectationError as exc:
             raise click.UsageError(f"--expectations: {exc}") from exc
-    if (fuzz_examples is not None or replay is not None) and not _fuzz_available():
-        click.echo(
-            "note: openair_conformance.fuzz is not installed; fuzz options ignored", err=True
-        )
+    if not _fuzz_available() and (not cases or any(fnmatchcase("FUZZ-001", g) for g in cases)):
+        click.echo("note: FUZZ-001 not run: pip install 'openair-kit[fuzz]'", err=True)
     try:
         options = RunOptions(
             target=address,
@@ -302,20 +365,30 @@ def run_command(
             fuzz_examples=fuzz_examples,
             replay=replay,
             stream=stream,
+            order=order,
+            seed=seed,
+            on_target_death="restart" if on_target_death == "restart-cmd" else on_target_death,
+            restart_cmd=restart_cmd,
         )
     except EngineError as exc:
-        raise click.BadParameter(str(exc), param_hint="--stream") from exc
+        raise click.UsageError(str(exc)) from exc
     reporters = load_reporters(
-        sys.stdout, verbose=verbose, junit=junit, json_path=json_path, html=html
+        sys.stdout,
+        verbose=verbose,
+        junit=junit,
+        json_path=json_path,
+        html=html,
+        html_traces=html_traces,
     )
     try:
-        summary = asyncio.run(run(options, reporters))
+        with _hypothesis_home():
+            summary = asyncio.run(run(options, reporters))
     except NoCasesSelected as exc:
         raise click.UsageError(str(exc)) from exc
     except TargetUnreachable as exc:
         click.echo(f"error: cannot talk to {options.target_text}: {exc}", err=True)
         sys.exit(3)
-    sys.exit(exit_code(summary, verdicts))
+    sys.exit(4 if reports_failed(reporters) else exit_code(summary, verdicts))
 
 
 @conform.command("list")
@@ -409,6 +482,12 @@ def coverage_rows(
     return [(req, citing.get(req.id, [])) for req in catalogue.values() if req.level in levels]
 
 
+def _unchecked(req_id: str) -> str:
+    """Say why no case checks `req_id`: a known reason, or that it is a gap in the suite."""
+    reason = NOT_CHECKED.get(req_id)
+    return f"— not testable over TCP: {reason}" if reason else "— NOT CHECKED (a gap in the suite)"
+
+
 @conform.command("coverage")
 @click.option("--all", "include_may", is_flag=True, help="Include MAY requirements too.")
 @click.option("--missing", is_flag=True, help="Show only requirements no case checks.")
@@ -418,11 +497,16 @@ def coverage_command(include_may: bool, missing: bool) -> None:
     cases = all_cases()
     levels = frozenset({"MUST", "SHOULD", "MAY"} if include_may else {"MUST", "SHOULD"})
     rows = coverage_rows(cases, catalogue, levels)
+    # The world-model cases (spec 16, `openair conform-worldmodel`) judge a module: add theirs.
+    from openair_conformance.worldmodel.cases import CASES as WM_CASES
+
+    for req, ids in rows:
+        ids.extend(f"{wm.id} (conform-worldmodel)" for wm in WM_CASES if req.id in wm.requirements)
     for req, ids in rows:
         if missing and ids:
             continue
         ext = f" [ext {req.extension}]" if req.extension else ""
-        checked = ", ".join(ids) if ids else "— not checked"
+        checked = ", ".join(ids) if ids else _unchecked(req.id)
         click.echo(f"{req.id:<13} {req.level:<6} {req.section:<6} {checked}{ext}")
     for level in sorted(levels, key=["MUST", "SHOULD", "MAY"].index):
         total = [ids for req, ids in rows if req.level == level]
@@ -456,4 +540,7 @@ def report_command(reports: tuple[Path, ...], output: Path) -> None:
         module.write_comparison(list(reports), output)
     except ValueError as exc:  # jsonreport.ReportError: not a report of ours
         raise click.UsageError(str(exc)) from None
+    except OSError as exc:
+        click.echo(f"error: could not write {output}: {exc}", err=True)
+        sys.exit(4)
     click.echo(f"wrote {output}")

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from openair_conformance.cli import load_reporters, parse_fail_on, report_options
+from openair_conformance.cli import load_reporters, parse_fail_on, report_options, reports_failed
 from openair_conformance.clientmode.engine import (
     ClientRunOptions,
     NoScenariosSelected,
@@ -34,7 +34,8 @@ Exit codes:
   0  no result has a verdict in the --fail-on set
   1  some result has a verdict in the --fail-on set
   2  usage error: bad option, bad scenario file, no scenario selected
-  3  the shim cannot be started, or does not write its ready line"""
+  3  the shim cannot be started, or does not write its ready line
+  4  a report asked for (--junit, --json, --html) could not be written"""
 
 
 def _list(globs: tuple[str, ...], folder: Path | None) -> None:
@@ -92,6 +93,7 @@ def conform_client(
     junit: Path | None,
     json_path: Path | None,
     html: Path | None,
+    html_traces: str,
     scenario_dir: Path | None,
     verbose: bool,
 ) -> None:
@@ -120,7 +122,12 @@ def conform_client(
         scenario_dir=scenario_dir,
     )
     reporters = load_reporters(
-        sys.stdout, verbose=verbose, junit=junit, json_path=json_path, html=html
+        sys.stdout,
+        verbose=verbose,
+        junit=junit,
+        json_path=json_path,
+        html=html,
+        html_traces=html_traces,
     )
     try:
         summary = asyncio.run(run_client(options, reporters))
@@ -129,7 +136,7 @@ def conform_client(
     except (ShimUnavailable, ShimError) as exc:
         click.echo(f"error: the shim cannot be used: {exc}", err=True)
         sys.exit(3)
-    sys.exit(exit_code(summary, options.fail_on))
+    sys.exit(4 if reports_failed(reporters) else exit_code(summary, options.fail_on))
 
 
 def _shim_argv(shim: str | None) -> tuple[str, ...]:

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import asyncio
 import math
+import random
 import secrets
 import shlex
 import sys
 import time
 import traceback
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from openair_conformance.expectations import (
@@ -28,7 +29,9 @@ from openair_conformance.expectations import (
     unknown_entries,
 )
 from openair_conformance.harness.context import CaseContext, deadline_for
+from openair_conformance.harness.liveness import Restarter, alive, first_unanswered
 from openair_conformance.harness.probe import TargetUnreachable, probe
+from openair_conformance.harness.trace import Trace
 from openair_conformance.model import (
     CaseFinished,
     CaseInfo,
@@ -44,15 +47,19 @@ from openair_conformance.model import (
     RunStarted,
     RunSummary,
     ServerInfo,
+    TargetDeath,
     Timing,
     Verdict,
 )
 from openair_conformance.registry import RegisteredCase, all_cases, select_cases
 
 __all__ = [
+    "DEATH_ACTIONS",
     "DEFAULT_FAIL_ON",
     "DEFAULT_STREAM",
+    "EXIT_TARGET_DIED",
     "LATENCY_MEASURE",
+    "ORDERS",
     "EngineError",
     "NoCasesSelected",
     "RunOptions",
@@ -71,6 +78,18 @@ DEFAULT_STREAM = "Stream1"
 # judged ERROR: every wait in the harness is bounded, so only a harness bug gets there.
 _BUDGET_DEADLINES = 60
 _MIN_BUDGET = 60.0
+#: Fuzzing examples against a slow target (see `_Run.fuzz_examples`).
+_FUZZ_DEFAULT = 25
+_FUZZ_FAST_RTT = 0.05
+_FUZZ_MIN_EXAMPLES = 5
+#: What `--on-target-death` may say (`restart` needs `restart_cmd`).
+DEATH_ACTIONS = ("stop", "continue", "restart")
+#: The orders cases may be started in (`--order`).
+ORDERS = ("registry", "random")
+#: The exit code of a run during which the target died (README, exit codes).
+EXIT_TARGET_DIED = 5
+#: Verdicts after which the target is not asked whether it is still alive: it just answered.
+_ANSWERED = frozenset({Verdict.PASS, Verdict.NOT_APPLICABLE, Verdict.UNEXPECTED_PASS})
 
 
 class EngineError(Exception):
@@ -100,6 +119,13 @@ class RunOptions:
     stream: str = DEFAULT_STREAM
     run_id: str = field(default_factory=lambda: secrets.token_hex(2))
     probe_timeout: float = 10.0
+    #: `registry` (ID order) or `random` (shuffled with `seed`; a seed is drawn when None).
+    order: str = "registry"
+    seed: int | None = None
+    #: When the target stops answering: `stop`, `continue`, or `restart` (runs `restart_cmd`).
+    on_target_death: str = "stop"
+    restart_cmd: str = ""
+    restart_timeout: float = 60.0
 
     def __post_init__(self) -> None:
         if self.jobs < 1:
@@ -110,6 +136,14 @@ class RunOptions:
             raise EngineError("run id must be letters and digits")
         if not self.stream or any(ch.isspace() or ch == ";" for ch in self.stream):
             raise EngineError("stream name must be non-empty, without white space or ';'")
+        if self.order not in ORDERS:
+            raise EngineError(f"order must be one of {', '.join(ORDERS)}")
+        if self.order == "random" and self.seed is None:  # drawn, and reported to replay it
+            object.__setattr__(self, "seed", secrets.randbelow(1 << 31))
+        if self.on_target_death not in DEATH_ACTIONS:
+            raise EngineError(f"on-target-death must be one of {', '.join(DEATH_ACTIONS)}")
+        if (self.on_target_death == "restart") != bool(self.restart_cmd.strip()):
+            raise EngineError("restart-cmd needs a command, and a command needs restart-cmd")
 
     @property
     def target_text(self) -> str:
@@ -162,7 +196,10 @@ def judge(info: CaseInfo, exc: BaseException | None) -> tuple[Verdict, str, str]
 
 
 def exit_code(summary: RunSummary, fail_on: frozenset[Verdict] = DEFAULT_FAIL_ON) -> int:
-    """Return 1 if any result has a verdict in `fail_on`, else 0."""
+    """Return 5 if the target died during the run, else 1 if any result has a verdict in
+    `fail_on`, else 0."""
+    if summary.target_deaths:
+        return EXIT_TARGET_DIED
     return 1 if any(summary.count(v) for v in fail_on) else 0
 
 
@@ -180,6 +217,18 @@ class _Run:
     expectations: Expectations | None
     results: list[CaseResult] = field(default_factory=list)
     vacuous: list[str] = field(default_factory=list)
+    deaths: list[TargetDeath] = field(default_factory=list)
+    not_run: list[str] = field(default_factory=list)
+    stopped: bool = False
+    down: bool = False  # the target was last seen dead (`continue` reports each death once)
+    restarter: Restarter | None = None
+    restarting: bool = False
+    interrupted: list[tuple[RegisteredCase, CaseResult]] = field(default_factory=list)
+    in_flight: set[str] = field(default_factory=set)
+    #: Traces of the cases that may have been running when the target died (to name the one).
+    watched: dict[str, Trace] = field(default_factory=dict)
+    gate: asyncio.Event = field(default_factory=asyncio.Event)  # set: cases may start
+    idle: asyncio.Event = field(default_factory=asyncio.Event)  # set: no case in flight
 
     def emit(self, event: Event) -> None:
         for reporter in self.reporters:
@@ -189,6 +238,22 @@ class _Run:
     def rtt(self) -> float:
         return self.server.rtt_ms / 1000.0
 
+    @property
+    def fuzz_examples(self) -> int | None:
+        """--fuzz-examples; else, for a slow target, fewer than the fuzzing cases' default.
+
+        A fuzzing example is a dozen round trips: at 0.3 s each, the default 25 examples took
+        over two minutes of a run that must fit in five (issue #16). Above `_FUZZ_FAST_RTT` the
+        count shrinks with the round-trip time, to no fewer than `_FUZZ_MIN_EXAMPLES`.
+        """
+        if self.options.fuzz_examples is not None or self.rtt <= _FUZZ_FAST_RTT:
+            return self.options.fuzz_examples
+        return max(_FUZZ_MIN_EXAMPLES, int(_FUZZ_DEFAULT * _FUZZ_FAST_RTT / self.rtt))
+
+    @property
+    def deadline(self) -> float:
+        return deadline_for(self.rtt, self.options.timeout_scale)
+
     def repro(self, info: CaseInfo, extra: Sequence[str]) -> str:
         words = ["openair", "conform", self.options.target_text, "--case", info.id]
         if self.options.timeout_scale != 1.0:
@@ -197,9 +262,64 @@ class _Run:
             words += ["--stream", self.options.stream]
         return shlex.join([*words, *extra])
 
-    async def run_case(self, case: RegisteredCase) -> CaseResult:
+    async def schedule(self, cases: Sequence[RegisteredCase], jobs: int) -> None:
+        """Run `cases` `jobs` at a time; hold new starts while the target is restarted."""
+        queue = list(cases)
+
+        async def worker() -> None:
+            while queue:
+                await self.gate.wait()
+                if self.stopped or not queue:
+                    return
+                await self.run_case(queue.pop(0))
+
+        await asyncio.gather(*(worker() for _ in range(min(jobs, len(queue)))))
+        self.not_run += [c.info.id for c in queue]
+
+    def _enter(self, case_id: str) -> None:
+        self.in_flight.add(case_id)
+        self.idle.clear()
+
+    def _leave(self, case_id: str) -> None:
+        self.in_flight.discard(case_id)
+        if not self.in_flight:
+            self.idle.set()
+
+    async def run_case(self, case: RegisteredCase, *, first: CaseResult | None = None) -> None:
+        """Run one case, ask the target whether it survived, and emit the result."""
         info = case.info
-        self.emit(CaseStarted(info=info))
+        if first is None:
+            self.emit(CaseStarted(info=info))
+        self._enter(info.id)
+        try:
+            result = await self._attempt(case)
+            problem = await self._dead(result)
+        finally:
+            self._leave(info.id)
+        if first is not None:
+            note = f"rerun after restart; the first attempt was {first.verdict.value}"
+            message = f"{note}: {first.message}" if first.message else note
+            result = replace(
+                result,
+                rerun_after_restart=True,
+                message=f"{message}\n{result.message}" if result.message else message,
+            )
+        if problem is not None:
+            result = replace(result, target_died=True)
+            if await self._on_death(case, result, problem, rerun=first is not None):
+                return  # held back: the case runs again after the restart
+        else:
+            self.watched.pop(info.id, None)
+            if result.verdict is not Verdict.NOT_APPLICABLE:  # it ran: the target answered
+                self.down = False
+        self._finish(result)
+
+    def _finish(self, result: CaseResult) -> None:
+        self.results.append(result)
+        self.emit(CaseFinished(result=result))
+
+    async def _attempt(self, case: RegisteredCase) -> CaseResult:
+        info = case.info
         ctx = CaseContext(
             case=info,
             target=self.options.target,
@@ -207,16 +327,86 @@ class _Run:
             timeout_scale=self.options.timeout_scale,
             server=self.server,
             run_id=self.options.run_id,
-            fuzz_examples=self.options.fuzz_examples,
+            fuzz_examples=self.fuzz_examples,
             replay=self.options.replay,
             stream=self.options.stream,
         )
+        self.watched[info.id] = ctx.trace
         started = time.monotonic()
         outcome = await self._execute(case, ctx)
-        result = self._result(info, ctx, outcome, time.monotonic() - started)
-        self.results.append(result)
-        self.emit(CaseFinished(result=result))
-        return result
+        return self._result(info, ctx, outcome, time.monotonic() - started)
+
+    async def _dead(self, result: CaseResult) -> str | None:
+        """Return why the target looks dead after this result, or None (cheap: one PING).
+
+        Not asked after a pass: the target has just answered. The wait is the deadline plus
+        the grace, so that a slow target is not taken for a dead one.
+        """
+        if result.verdict in _ANSWERED:
+            return None
+        host, port = self.options.target
+        return await alive(host, port, timeout=self.deadline * 4)
+
+    async def _on_death(
+        self, case: RegisteredCase, result: CaseResult, problem: str, *, rerun: bool
+    ) -> bool:
+        """Act per --on-target-death; return True when the result is held for a rerun."""
+        mode = self.options.on_target_death
+        others = tuple(sorted(self.in_flight - {case.info.id}))
+        if mode == "restart":
+            if not rerun:
+                self.interrupted.append((case, result))
+            if not self.restarting:
+                await self._restart(case.info.id, problem, others)
+            return not rerun
+        if mode == "continue":
+            if not self.down:
+                self._record(case.info.id, problem, "continued", others)
+            self.down = True
+            return False
+        if not self.stopped:
+            self._record(case.info.id, problem, "stopped", others)
+        self.stopped = True
+        self.gate.set()  # waiting workers see `stopped` and start nothing
+        return False
+
+    def _record(self, case_id: str, problem: str, action: str, others: tuple[str, ...]) -> None:
+        """Record a death, naming the case that sent the first frame nothing answered.
+
+        With cases in parallel the one whose liveness check failed first need not be the one
+        that killed the target; the others that may have are listed in `in_flight`.
+        """
+        traces = {cid: (trace.origin, trace.entries) for cid, trace in self.watched.items()}
+        culprit = first_unanswered(traces) or case_id
+        suspects = (set(others) | {case_id} | set(self.watched)) - {culprit}
+        death = TargetDeath(
+            case=culprit, detail=problem, action=action, in_flight=tuple(sorted(suspects))
+        )
+        self.deaths.append(death)
+        self.watched = {cid: t for cid, t in self.watched.items() if cid in self.in_flight}
+
+    async def _restart(self, case_id: str, problem: str, others: tuple[str, ...]) -> None:
+        """Hold new cases, let the running ones end, restart, then rerun the interrupted."""
+        assert self.restarter is not None
+        self.restarting = True
+        self.gate.clear()
+        await self.idle.wait()
+        host, port = self.options.target
+        failed = await self.restarter.restart(host, port, probe_timeout=self.deadline)
+        self._record(case_id, problem, "restart-failed" if failed else "restarted", others)
+        if failed:
+            self.deaths[-1] = replace(self.deaths[-1], detail=f"{problem}; {failed}")
+        held, self.interrupted = self.interrupted, []
+        self.restarting = False
+        if failed:
+            for _, first in held:
+                self._finish(first)
+            self.stopped = True
+            self.gate.set()
+            return
+        for again, first in held:
+            await self.run_case(again, first=first)
+        self.gate.set()
 
     async def _execute(self, case: RegisteredCase, ctx: CaseContext) -> BaseException | None:
         missing = sorted(case.info.needs - set(self.server.capabilities))
@@ -290,7 +480,17 @@ class _Run:
             vacuous=tuple(sorted(self.vacuous)),
             unknown_expectations=unknown_entries(self.expectations, known),
             results=tuple(sorted(self.results, key=lambda r: r.info.id)),
+            target_deaths=tuple(self.deaths),
+            not_run=tuple(self.not_run),
         )
+
+
+def _ordered(cases: Sequence[RegisteredCase], options: RunOptions) -> list[RegisteredCase]:
+    """Return the cases in the order asked for (`random`: shuffled with the run's seed)."""
+    ordered = list(cases)
+    if options.order == "random":
+        random.Random(options.seed).shuffle(ordered)
+    return ordered
 
 
 def _options_record(options: RunOptions, server: ServerInfo) -> dict[str, str]:
@@ -316,6 +516,13 @@ def _options_record(options: RunOptions, server: ServerInfo) -> dict[str, str]:
         record["replay"] = options.replay
     if options.stream != DEFAULT_STREAM:
         record["stream"] = options.stream
+    if options.order != "registry":
+        record["order"] = options.order
+        record["seed"] = str(options.seed)
+    if options.on_target_death != "stop":
+        record["on_target_death"] = options.on_target_death
+    if options.restart_cmd:
+        record["restart_cmd"] = options.restart_cmd
     return record
 
 
@@ -366,17 +573,17 @@ async def _run(
             cases=len(selected),
         )
     )
-    parallel = [c for c in selected if not c.info.serial]
-    serial = [c for c in selected if c.info.serial]
-    window = asyncio.Semaphore(options.jobs)
-
-    async def limited(case: RegisteredCase) -> None:
-        async with window:
-            await state.run_case(case)
-
-    await asyncio.gather(*(limited(c) for c in parallel))
-    for case in serial:  # serial cases need global state: each runs alone
-        await state.run_case(case)
+    if options.on_target_death == "restart":
+        state.restarter = Restarter(options.restart_cmd, timeout=options.restart_timeout)
+    state.gate.set()
+    state.idle.set()
+    ordered = _ordered([c for c in selected if not c.info.residue], options)
+    await state.schedule([c for c in ordered if not c.info.serial], options.jobs)
+    # Serial cases need global state: each runs alone.
+    await state.schedule([c for c in ordered if c.info.serial], 1)
+    # Cases that may leave what no namespace holds come last, alone, in ID order: whatever
+    # the order of the others, none of them can meet it.
+    await state.schedule([c for c in selected if c.info.residue], 1)
     summary = state.summary(time.monotonic() - started, [c.info for c in known])
     state.emit(RunFinished(summary=summary))
     return summary

@@ -60,7 +60,13 @@ EXPECTABLE = frozenset(
 )
 # A Fail raised by a case becomes FAIL, PASS_NONSTRICT or INFORMATIONAL depending on its level;
 # an entry expecting "fail" covers all three, so one file serves cases of every level.
-_FAIL_FAMILY = frozenset({Verdict.FAIL, Verdict.PASS_NONSTRICT, Verdict.INFORMATIONAL})
+#: Verdicts an entry expecting `fail` covers. TIMING is one of them: an expected deviation
+#: (a legacy server closing a connection after 13 s instead of at once) lands in the grace
+#: window when --timeout-scale widens it, and is then late rather than absent — the same
+#: deviation, not a new timing problem.
+_FAIL_FAMILY = frozenset(
+    {Verdict.FAIL, Verdict.PASS_NONSTRICT, Verdict.INFORMATIONAL, Verdict.TIMING}
+)
 
 
 class ExpectationError(ValueError):

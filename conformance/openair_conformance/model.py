@@ -30,6 +30,7 @@ __all__ = [
     "RunStarted",
     "RunSummary",
     "ServerInfo",
+    "TargetDeath",
     "Timing",
     "TraceEntry",
     "Verdict",
@@ -79,6 +80,10 @@ class CaseInfo:
     needs: frozenset[str] = frozenset()
     serial: bool = False
     allowed: tuple[str, ...] = ()
+    #: The case may leave on a whiteboard what no namespace can hold (a message without a
+    #: type, which a legacy server stores and matches as a prefix of every pattern, DEV-1 and
+    #: DEV-17): it runs after every other case, so that no order of the others meets it.
+    residue: bool = False
 
     def __post_init__(self) -> None:
         if not _CASE_ID_RE.match(self.id):
@@ -133,6 +138,11 @@ class CaseResult:
     repro: str = ""
     measurements: tuple[tuple[str, float], ...] = ()
     expectation_reason: str = ""
+    #: The target stopped answering during this case (the liveness probe after it failed).
+    target_died: bool = False
+    #: The case was interrupted by the target's death and run again once after a restart
+    #: (`--on-target-death restart-cmd`); `message` says what the first attempt gave.
+    rerun_after_restart: bool = False
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -162,6 +172,21 @@ class ServerInfo:
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
+class TargetDeath:
+    """The target stopped answering: during which case, what the probe saw, what was done.
+
+    `action` is `stopped` (no further case started), `continued` (the run went on),
+    `restarted` (the restart command brought it back) or `restart-failed`. `in_flight` lists
+    the other cases running at the time (with `--jobs` above 1 any of them may be the cause).
+    """
+
+    case: str
+    detail: str
+    action: str
+    in_flight: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class RunSummary:
     """Totals of a run; `counts` holds one pair per verdict that occurred, in Verdict order.
 
@@ -178,6 +203,10 @@ class RunSummary:
     vacuous: tuple[str, ...] = ()
     unknown_expectations: tuple[str, ...] = ()
     results: tuple[CaseResult, ...] = field(default=(), repr=False)
+    #: Every time the target died during the run, in order (exit code 5).
+    target_deaths: tuple[TargetDeath, ...] = ()
+    #: Cases selected but never run (the run stopped when the target died).
+    not_run: tuple[str, ...] = ()
 
     def count(self, verdict: Verdict) -> int:
         """Return how many cases ended with `verdict`."""

@@ -95,3 +95,17 @@ def test_the_fuzz_case_leaves_no_hypothesis_folder_in_the_working_folder(
     assert done.returncode == 0, done.stdout + done.stderr
     assert list(cwd.iterdir()) == []
     assert (cache / "openair" / "hypothesis").is_dir()
+
+
+def test_conform_client_report_that_cannot_be_written_exits_4(tmp_path: Path) -> None:
+    from openair_conformance.client_cli import conform_client
+
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    shim = f"{sys.executable} -m openair.client.shim"
+    args = ["--shim", shim, "--scenario", "CLI-001", "--html-traces", "all"]
+    runner = CliRunner()
+    bad = runner.invoke(conform_client, [*args, "--json", str(blocker / "r.json")])
+    assert bad.exit_code == 4, bad.output
+    good = runner.invoke(conform_client, [*args, "--json", str(tmp_path / "r.json")])
+    assert good.exit_code == 0, good.output

@@ -15,6 +15,7 @@ case's samples.
 
 from __future__ import annotations
 
+import contextlib
 import time
 import zlib
 from collections.abc import Sequence
@@ -176,6 +177,8 @@ async def stream_under_test(ctx: CaseContext) -> str:
             f"the stream {name!r} does not resolve ({reply.type}): the server offers no such "
             "stream (OA-STREAM-15); name another with --stream"
         )
+    with contextlib.suppress(WakeupUnreadable):  # no location: the main port
+        ctx.resolved(name, attributes(content_object(reply, "tcplocation")))
     return name
 
 
@@ -235,7 +238,8 @@ class StreamClient:
         cls, ctx: CaseContext, stream: str, suffix: str = "W", *, to: str = ""
     ) -> StreamClient:
         """Open a raw connection for the writer/reader `ctx.name(suffix)`."""
-        return cls(ctx, await ctx.raw(suffix), stream, ctx.name(suffix), to)
+        raw = await ctx.raw(suffix, component=to or stream)  # its own port, if it has one
+        return cls(ctx, raw, stream, ctx.name(suffix), to)
 
     def message(
         self, type: str, content: str = "", *, xml: bool = False, binary: Sequence[bytes] = ()

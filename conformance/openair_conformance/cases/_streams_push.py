@@ -62,7 +62,7 @@ class PushReader:
         cls, ctx: CaseContext, to: str, suffix: str, *, paused: bool = False
     ) -> PushReader:
         """Open a connection and subscribe the reader `ctx.name(suffix)` to `to`."""
-        raw = await ctx.raw(suffix)
+        raw = await ctx.raw(suffix, component=to)  # the stream's own port, if it has one
         reader = cls(ctx, raw, name=ctx.name(suffix), to=to)
         reader._state.paused = paused
         notice = Message(type="RECEIVE_NAME_NOTIFICATION", sender=reader.name, to=to)

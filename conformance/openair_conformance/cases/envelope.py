@@ -159,6 +159,7 @@ async def duplicate_slot(ctx: CaseContext) -> None:
     section="3.1",
     requirements=("OA-MSG-2", "OA-ERR-2"),
     allowed=("RECEIVE_ERROR 'MESSAGE_INVALID: …'",),
+    residue=True,  # Psyclone stores the untyped message (DEV-17); its empty type matches all
 )
 async def missing_type(ctx: CaseContext) -> None:
     """Post to WB1 with no `<type>` element, then with `<type></type>`.

@@ -69,7 +69,7 @@ async def _error_then_close(
     id="FRAME-001",
     title="A reply frame is tag, NUL, little-endian byte length, then exactly that much UTF-8 XML",
     section="2.1",
-    requirements=("OA-FRAME-1", "OA-FRAME-3"),
+    requirements=("OA-FRAME-1", "OA-FRAME-3", "OA-MSG-1", "OA-SESS-20"),
     allowed=("header 'Message' 00 L (LE) and L bytes of XML whose root is <message>",),
 )
 async def reply_frame_bytes(ctx: CaseContext) -> None:

@@ -230,7 +230,7 @@ async def malformed_on_primary(ctx: CaseContext) -> None:
     name = ctx.name("R")
     reply = await raw.request(Message(type="BIND_NOLISTEN", sender=name, to="CNS"))
     ctx.check(reply.type == "BIND_ACCEPT", f"BIND_NOLISTEN: {reply.type}", expected="BIND_ACCEPT")
-    reply = await send_xml(raw, b"<message><type>oops</type")
+    reply = await send_xml(raw, f"<message><type>{ctx.type('Oops')}</type".encode())
     check_error(ctx, reply, names=("XML_MALFORMED",), what="malformed XML", req="OA-ERR-3")
     resolve = await raw.request(Message(type="STATUS", sender=name, to="CNS"))
     ctx.check(
@@ -258,7 +258,7 @@ async def table_names(ctx: CaseContext) -> None:
     raw = await ctx.raw()
     me = ctx.name("H")
     requests = [
-        b"<message><type>x</type",
+        f"<message><type>{ctx.type('X')}</type".encode(),
         message_xml(ctx.type("A..B"), to="WB1", sender=me),
         message_xml(ctx.type("P"), to="WB1", sender=me, attrs='priority="9"'),
         message_xml("AIR.Subscribe", to="AIRCentral", sender=me, content="not a registration"),

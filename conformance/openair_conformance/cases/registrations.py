@@ -105,7 +105,7 @@ async def group_from(ctx: CaseContext) -> None:
     """
     sub = await ctx.module("Sub")
     content = (
-        f'<module name="x"><triggers from="WB2"><trigger type="{ctx.type("Go")}"/>'
+        f'<module name="{sub.name}"><triggers from="WB2"><trigger type="{ctx.type("Go")}"/>'
         f'<trigger from="WB1" type="{ctx.type("Stop")}"/></triggers>'
         f'<retrieves from="WB2"><retrieve type="{ctx.type("Data.*")}"/></retrieves></module>'
     )
@@ -154,7 +154,8 @@ async def context_phase_form(ctx: CaseContext) -> None:
     for phase, form in forms.items():
         modules[phase] = await ctx.module(phase)
         await modules[phase].subscribe(
-            f'<module name="x">{form.format(b=body, c="Psyclone.System.Ready")}</module>',
+            f'<module name="{modules[phase].name}">'
+            f"{form.format(b=body, c='Psyclone.System.Ready')}</module>",
             check=True,
         )
     poster = await ctx.module("Poster", bind=False)
@@ -243,7 +244,7 @@ async def invalid_registrations(ctx: CaseContext) -> None:
         (f'<triggers><trigger from="WB1" type="{t}" after="-5"/></triggers>', True),
         (f'<triggers><trigger from="WB1" type="{t}" after="soon"/></triggers>', True),
         (
-            f'<module name="x"><trigger type="{t}"/>'
+            f'<module name="{sub.name}"><trigger type="{t}"/>'
             f'<retrieve from="WB1" type="{t}" latest="x"/></module>',
             True,
         ),
@@ -301,7 +302,7 @@ async def empty_registration(ctx: CaseContext) -> None:
     """
     sub = await ctx.module("Sub")
     poster = await ctx.module("Poster", bind=False)
-    for empty in ("<triggers/>", '<module name="M"/>'):
+    for empty in ("<triggers/>", f'<module name="{sub.name}"/>'):
         await setup_subscribe(sub, triggers_xml(ctx.type("T")))
         await sub.subscribe(empty, check=True)
         await poster.post("WB1", ctx.type("T"), f"after {empty}")
@@ -414,7 +415,7 @@ async def self_triggering(ctx: CaseContext) -> None:
     woken = await module.barrier()
     ctx.check(not woken, f"{len(woken)} self-triggered wakeup(s)", expected="none (OA-TRIG-4)")
     trigger = f'<trigger from="WB1" type="{ctx.type("T")}"/>'
-    allow = f'<module name="x" allowselftriggering="YES">{trigger}</module>'
+    allow = f'<module name="{module.name}" allowselftriggering="YES">{trigger}</module>'
     await setup_subscribe(module, allow)
     await module.post("WB1", ctx.type("T"), "own, allowed")
     assert module.last_sent is not None
@@ -495,7 +496,7 @@ async def other_contexts(ctx: CaseContext) -> None:
     """
     other = f"ConfR{ctx.run_id}.Idle"
     content = (
-        f'<module name="x"><context name="{other}">'
+        f'<module name="{ctx.name("Sub")}"><context name="{other}">'
         f'<phase id="O">{triggers_xml(ctx.type("Other"))}</phase></context>'
         '<context name="Psyclone.System.Ready">'
         f'<phase id="R1">{triggers_xml(ctx.type("First"))}</phase>'

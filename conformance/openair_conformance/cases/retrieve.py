@@ -194,7 +194,7 @@ async def lastmsec(ctx: CaseContext) -> None:
     id="RET-006",
     title="afterTime and untilTime are inclusive bounds on receivedTime, in all three forms",
     section="9.2",
-    requirements=("OA-RET-9",),
+    requirements=("OA-RET-9", "OA-WB-4"),
     allowed=("exactly the messages whose receivedTime lies within the bounds, bounds included",),
 )
 async def time_bounds(ctx: CaseContext) -> None:
@@ -385,7 +385,7 @@ async def text_spec(ctx: CaseContext) -> None:
     id="RET-012",
     title="A retrieve whose reply would exceed max-frame-xml fails LIMIT_EXCEEDED",
     section="9.3",
-    requirements=("OA-RET-15",),
+    requirements=("OA-RET-15", "OA-WB-3"),
     allowed=("AIR.Retrieve.Failed with content 'LIMIT_EXCEEDED: …'",),
 )
 async def reply_too_large(ctx: CaseContext) -> None:

@@ -103,7 +103,7 @@ async def bind_port(ctx: CaseContext) -> None:
     id="SESS-010",
     title="A module bound with BIND_NOLISTEN is woken over its callback connection",
     section="6.5",
-    requirements=("OA-SESS-5", "OA-SESS-7", "OA-DELIV-1", "OA-FRAME-10"),
+    requirements=("OA-SESS-5", "OA-SESS-7", "OA-DELIV-1", "OA-FRAME-10", "OA-REG-7"),
     allowed=(
         "the wakeup arrives on the callback connection (a PING there first is allowed)",
         "no reply to the Receive frame",

@@ -127,7 +127,7 @@ async def sample_round_trip(ctx: CaseContext) -> None:
     id="STREAM-003",
     title="Ids go up by one per sample added, also within ADD_SAMPLES; a writer's id is ignored",
     section="11.3",
-    requirements=("OA-STREAM-4", "OA-STREAM-5"),
+    requirements=("OA-STREAM-4", "OA-STREAM-5", "OA-STREAM-6"),
     serial=True,
     allowed=("ids newest+1 … newest+5, whatever builtin:id the writer gave",),
 )

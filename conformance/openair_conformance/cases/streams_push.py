@@ -72,7 +72,7 @@ def check_pushed_message(ctx: CaseContext, p: Pushed, stream: str, reader: str) 
     id="STREAM-011",
     title="A push subscriber gets every new sample, in id order, as DATASAMPLE with its chunk",
     section="11.6",
-    requirements=("OA-STREAM-8", "OA-STREAM-12"),
+    requirements=("OA-STREAM-8", "OA-STREAM-12", "OA-SESS-7"),
     allowed=(
         "DATASAMPLE requests from the stream to the reader (`to` = its name), one chunk each, "
         "consecutive ids; a gap only with a dropped slot counting it",
@@ -129,7 +129,7 @@ async def push_in_order(ctx: CaseContext) -> None:
     id="STREAM-012",
     title="A stalled push subscriber delays no writer or other reader and learns what it lost",
     section="11.6",
-    requirements=("OA-STREAM-8", "OA-STREAM-12", "OA-DELIV-6"),
+    requirements=("OA-STREAM-8", "OA-STREAM-12", "OA-DELIV-6", "OA-DELIV-5"),
     allowed=(
         "the writer's adds and the other reader's pushes go on; the stalled reader has one "
         "DATASAMPLE in flight; after it resumes, each gap is counted by a dropped slot and it "

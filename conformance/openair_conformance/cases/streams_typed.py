@@ -57,7 +57,7 @@ async def _create_refused(ctx: CaseContext, raw: RawConnection, content: str, wh
     id="XSTREAM-001",
     title="Psyclone.System.Create.Stream creates an empty stream; bad requests are CONTENT_INVALID",
     section="11.7",
-    requirements=("OA-XSTREAM-10", "OA-STREAM-4", "OA-SESS-8", "OA-STREAM-16"),
+    requirements=("OA-XSTREAM-10", "OA-STREAM-4", "OA-SESS-8", "OA-STREAM-16", "OA-STREAM-6"),
     needs=_TYPED,
     allowed=(
         "RECEIVE_ACCEPT; the name resolves, the stream is empty and its first ids are 1, 2; "

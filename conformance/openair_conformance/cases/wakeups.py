@@ -124,7 +124,7 @@ async def registration_retrieves(ctx: CaseContext) -> None:
     """
     sub = await ctx.module("Sub")
     content = (
-        f'<module name="x"><trigger from="WB2" type="{esc(ctx.type("Go"))}"/>'
+        f'<module name="{sub.name}"><trigger from="WB2" type="{esc(ctx.type("Go"))}"/>'
         f'<retrieve from="WB2" type="{esc(ctx.type("Data.*"))}"><latest>2</latest></retrieve>'
         f'<retrieve type="{esc(ctx.type("Go"))}"/></module>'
     )
@@ -217,7 +217,7 @@ async def contexts(ctx: CaseContext) -> None:
         f'<context name="{root}.{x}"><phase id="P{x}">{triggers_xml(ctx.type(x))}</phase></context>'
         for x in ("A", "B")
     )
-    await setup_subscribe(sub, f'<module name="x">{content}</module>')
+    await setup_subscribe(sub, f'<module name="{sub.name}">{content}</module>')
     poster = await ctx.module("Poster", bind=False)
     steps: tuple[tuple[str | None, list[str]], ...] = (
         (None, []),

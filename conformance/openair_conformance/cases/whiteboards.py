@@ -26,7 +26,7 @@ from openair_conformance.registry import case
     id="WB-002",
     title="The stored copy keeps every slot of the post and adds stored, receivedTime and wbid",
     section="7.4",
-    requirements=("OA-WB-4", "OA-WAKE-2", "OA-TIME-4"),
+    requirements=("OA-WB-4", "OA-WAKE-2", "OA-TIME-4", "OA-WB-3"),
     allowed=(
         "type, id, from, to, cc, priority, language and content as posted; stored = WB1; a "
         "receivedTime and a wbid; netprotocol or comment may be added",
@@ -111,7 +111,7 @@ async def wbid_sequence(ctx: CaseContext) -> None:
     id="WB-004",
     title="A whiteboard holds at most maxcount messages; the oldest is evicted",
     section="7.4",
-    requirements=("OA-WB-6", "OA-CONF-2"),
+    requirements=("OA-WB-6", "OA-CONF-2", "OA-WB-3"),
     needs=("noreply",),
     serial=True,
     allowed=(
@@ -237,6 +237,7 @@ async def decided_at_receipt(ctx: CaseContext) -> None:
     allowed=(
         "RECEIVE_ACCEPT for each; each is stored; PING to WB1 is still answered PING_SUCCESS",
     ),
+    residue=True,  # its types (BIND, STATUS, …) cannot be under the case's prefix
 )
 async def command_types_are_posts(ctx: CaseContext) -> None:
     """Post types BIND, RESOLVE_REQUEST, GET_CAPABILITIES and STATUS to WB1; retrieve by id.

@@ -25,6 +25,7 @@ __all__ = [
     "content_root",
     "is_phase_update",
     "message_collection",
+    "registered_module_name",
     "triggered_by",
     "wakeup_trigger_id",
     "wakeup_view",
@@ -172,12 +173,31 @@ def is_phase_update(msg: Message) -> bool:
 
 
 def wakeup_trigger_id(msg: Message) -> str | None:
-    """Return the id of the wakeup's trigger message, or None if it has none or is unreadable."""
+    """Return the id of the wakeup's trigger message, or None if it has none.
+
+    When the trigger message cannot be read as a whole (a legacy server echoes a posted
+    priority 6.999 as "7.00", or spells other slots its own way), its `<id>` is read directly:
+    recognising a message the suite sent (a barrier sentinel) must not depend on the decoder
+    accepting every other slot.
+    """
     try:
         trigger = wakeup_view(msg).trigger
     except WakeupUnreadable:
-        return None
+        return _raw_trigger_id(msg)
     return trigger.id if trigger is not None else None
+
+
+def _raw_trigger_id(msg: Message) -> str | None:
+    """Return the text of the TriggerMessage's `<id>`, read from the element tree, or None."""
+    try:
+        objects = _objects(content_object(msg, "objectdictionary"))
+    except WakeupUnreadable:
+        return None
+    trigger = next((el for name, el in objects if name == "TriggerMessage"), None)
+    if trigger is None or _local(trigger) != "message":
+        return None
+    ident = next((c for c in trigger if _local(c) == "id"), None)
+    return (ident.text or "").strip() if ident is not None else None
 
 
 def triggered_by(message_id: str) -> Callable[[Message], bool]:
@@ -187,3 +207,14 @@ def triggered_by(message_id: str) -> Callable[[Message], bool]:
         return wakeup_trigger_id(msg) == message_id
 
     return predicate
+
+
+def registered_module_name(content_xml: str) -> str | None:
+    """Return N of a registration whose content is `<module name="N">`, else None."""
+    try:
+        roots = content_root(Message(type="", content=content_xml))
+    except WakeupUnreadable:
+        return None
+    if len(roots) != 1 or _local(roots[0]) != "module":
+        return None
+    return attributes(roots[0]).get("name")

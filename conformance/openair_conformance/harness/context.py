@@ -1,6 +1,6 @@
 """`CaseContext`: what a case gets to work with — names, deadlines, modules, raw connections.
 
-Deadlines come from the round-trip time the probe measured: `deadline = max(1.0 s, 100 × rtt) ×
+Deadlines come from the round-trip time the probe measured: `deadline = max(1.0 s, 10 × rtt) ×
 timeout_scale`; something that arrives after the deadline but within the grace (3 × deadline)
 makes the case TIMING, nothing at all makes it FAIL (README, "Time"). There are no fixed sleeps:
 cases synchronise on protocol round trips (`TestModule.barrier`, PING).
@@ -29,7 +29,9 @@ __all__ = ["GRACE_FACTOR", "MIN_DEADLINE", "RTT_FACTOR", "CaseContext", "deadlin
 T = TypeVar("T")
 
 MIN_DEADLINE = 1.0  # seconds
-RTT_FACTOR = 100.0
+#: Ten round trips: a case's step is a request, its reply and a delivery or two. (It was 100:
+#: a target answering in 0.3 s then had 30 s deadlines and 120 s waits for what never comes.)
+RTT_FACTOR = 10.0
 GRACE_FACTOR = 3.0
 _SUFFIX_RE = re.compile(r"^[A-Za-z0-9_]*$")
 
@@ -72,6 +74,9 @@ class CaseContext:
         self._modules: list[TestModule] = []
         self._raws: list[RawConnection] = []
         self._posted_at: dict[str, float] = {}
+        #: Components that RESOLVE_REQUEST placed on a port of their own (a legacy server gives
+        #: each stream one; OA-SESS-9): name → (host, port). `raw(component=…)` goes there.
+        self.component_ports: dict[str, tuple[str, int]] = {}
 
     # -- names ---------------------------------------------------------------------------------
 
@@ -85,6 +90,27 @@ class CaseContext:
             raise ValueError(f"name suffix must be letters, digits or _: {suffix!r}")
         base = f"C{self.run_id}_{self._case_token}"
         return f"{base}_{suffix}" if suffix else base
+
+    def in_namespace(self, name: str) -> bool:
+        """Return whether a module name belongs to this case and run (`name(...)` made it)."""
+        base = self.name()
+        return name == base or name.startswith(f"{base}_")
+
+    def check_module_name(self, name: str | None) -> None:
+        """Refuse (harness error) a module name no `name(...)` made: cases would interfere."""
+        if name is not None and not self.in_namespace(name):
+            raise RuntimeError(
+                f"case isolation: module name {name!r} is not this case's; use ctx.name(...)"
+            )
+
+    def check_post_type(self, type: str) -> None:
+        """Refuse (harness error) a posted type outside this run's names, unless the case is
+        marked `residue` (it runs after every other case): another case's pattern could match
+        what it leaves on a whiteboard."""
+        if not self.case.residue and f"R{self.run_id}" not in type:
+            raise RuntimeError(
+                f"case isolation: type {type!r} is outside the run's names; use ctx.type(...)"
+            )
 
     def type_prefix(self) -> str:
         """Return the type prefix unique to this case and run: `Conf.R<run>.<CASEID>`."""
@@ -166,12 +192,31 @@ class CaseContext:
         await module.open(listen=listen, callback=callback, bind=bind, extensions=extensions)
         return module
 
-    async def raw(self, label: str = "raw") -> RawConnection:
-        """Open a raw connection to the main port, labelled `<label>#<n>`."""
-        connection = RawConnection(self, label=f"{label}#{len(self._raws) + 1}")
+    async def raw(self, label: str = "raw", *, component: str = "") -> RawConnection:
+        """Open a raw connection labelled `<label>#<n>`: to the main port, or to the port
+        `component` resolved to when that is another one (`component_ports`)."""
+        address = self.component_ports.get(component, self.target) if component else self.target
+        connection = RawConnection(self, label=f"{label}#{len(self._raws) + 1}", address=address)
         self._raws.append(connection)
         await connection.open()
         return connection
+
+    def resolved(self, name: str, location: dict[str, str]) -> None:
+        """Remember where RESOLVE_SUCCESS placed `name` (attributes of its `<tcplocation>`).
+
+        Only a port other than the main port is kept: that is where the component's own
+        connections must go (OA-SESS-9, OA-SESS-34: a server may give a component its own
+        port, and a client learns which only from RESOLVE_SUCCESS).
+        """
+        host, main_port = self.target
+        try:
+            port = int(location.get("port", ""))
+        except ValueError:
+            return
+        if port > 0 and port != main_port:
+            address = location.get("address") or host
+            self.component_ports[name] = (address, port)
+            self.note(f"{name} resolved to its own port {address}:{port}; its connections go there")
 
     # -- evidence ------------------------------------------------------------------------------
 

@@ -17,7 +17,12 @@ from typing import TYPE_CHECKING
 
 from openair.framing import FrameTag
 from openair.message import Message
-from openair_conformance.harness.checks import is_phase_update, triggered_by, wakeup_trigger_id
+from openair_conformance.harness.checks import (
+    is_phase_update,
+    registered_module_name,
+    triggered_by,
+    wakeup_trigger_id,
+)
 from openair_conformance.harness.conn import (
     ConnectionLost,
     FramedStream,
@@ -259,8 +264,10 @@ class TestModule:
         """Post a message; return the reply (Fail unless RECEIVE_ACCEPT, when `check`).
 
         With `noreply` (extension `noreply`) nothing is answered and the sent message is
-        returned instead. The message as sent is also in `last_sent`.
+        returned instead. The message as sent is also in `last_sent`. The type must carry the
+        run's token (`ctx.type(...)`), unless the case is `residue` (`check_post_type`).
         """
+        self.ctx.check_post_type(type)
         msg = Message(
             type=type,
             sender=self.name if sender is None else sender,
@@ -289,7 +296,13 @@ class TestModule:
     async def subscribe(
         self, content_xml: str, *, to: str = "AIRCentral", check: bool = False
     ) -> Message:
-        """Send AIR.Subscribe with XML content; return the reply (Fail if `check` and refused)."""
+        """Send AIR.Subscribe with XML content; return the reply (Fail if `check` and refused).
+
+        A `<module name="N">` registration must name a module of this case and run (a legacy
+        server takes N as the module registered, so a shared placeholder such as "x" lets
+        cases register over each other): anything else is a harness error.
+        """
+        self.ctx.check_module_name(registered_module_name(content_xml))
         msg = Message(
             type="AIR.Subscribe",
             sender=self.name,

@@ -1,5 +1,6 @@
-"""`RawConnection`: a bare connection to the main port for cases that need byte-level control.
+"""`RawConnection`: a bare connection for cases that need byte-level control.
 
+It goes to the main port, or to a component's own port (`CaseContext.raw(component=)`).
 Nothing is answered or paired automatically: the case sends bytes or messages and reads what
 comes back, frame by frame. Everything goes to the trace (raw bytes as a hex dump).
 """
@@ -27,14 +28,17 @@ __all__ = ["RawConnection"]
 class RawConnection:
     """A raw, traced connection to the server's main port."""
 
-    def __init__(self, ctx: CaseContext, *, label: str) -> None:
+    def __init__(
+        self, ctx: CaseContext, *, label: str, address: tuple[str, int] | None = None
+    ) -> None:
         self.ctx = ctx
         self.label = label
+        self.address = address or ctx.target  # the main port, or a component's own port
         self._stream: FramedStream | None = None
 
     async def open(self) -> None:
         """Connect (INCONCLUSIVE if the server cannot be reached)."""
-        host, port = self.ctx.target
+        host, port = self.address
         try:
             self._stream = await open_stream(
                 host, port, label=self.label, trace=self.ctx.trace, timeout=self.ctx.deadline

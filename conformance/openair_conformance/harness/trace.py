@@ -45,6 +45,11 @@ class Trace:
         self._t0 = clock()
         self._entries: list[TraceEntry] = []
 
+    @property
+    def origin(self) -> float:
+        """When the trace began, on its clock (entries' `t` count from here)."""
+        return self._t0
+
     def elapsed(self) -> float:
         """Seconds since the trace began."""
         return self._clock() - self._t0

@@ -10,7 +10,7 @@ PORT   ?= 10000
 PYTEST_ARGS ?=
 
 .PHONY: all venv serve test test-python lint typecheck generate check-generated bench fuzz clean deps-browser
-.PHONY: demo-worldmodel
+.PHONY: demo-worldmodel mutation
 
 all: test
 
@@ -70,6 +70,15 @@ demo-worldmodel: $(STAMP)
 ## Benchmarks (never part of `make test`).
 bench: $(STAMP)
 	$(PY) -m bench
+
+## Mutation testing of the reference server, judged by the conformance suite (issue 15). Never
+## part of `make test`; hours on 2 workers; resumable (run it again to continue; sessions and the
+## coverage map live in build/mutation). Writes test-artifacts/mutation.md.
+## E.g. make mutation MUTATION_ARGS="--modules whiteboard queues --max-mutants 100"
+MUTATION_ARGS ?= --workers 2
+mutation: $(STAMP)
+	@$(PY) -c "import cosmic_ray, coverage" 2>/dev/null || $(PY) -m pip install --quiet -e '.[mutation]'
+	$(PY) -m tools.mutation $(MUTATION_ARGS)
 
 ## Long fuzzing runs (never part of `make test`).
 fuzz: $(STAMP)

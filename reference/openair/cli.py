@@ -28,6 +28,9 @@ _COMMANDS = {
     "conform-worldmodel": "openair_conformance.worldmodel.cli:conform_worldmodel",
     "ontology": "openair.ontology.cli_ontology:ontology",
     "stream": "openair.client.cli_stream:stream",
+    "record": "openair.recording.cli_recording:record",
+    "replay": "openair.recording.cli_recording:replay",
+    "monitor": "openair.recording.cli_recording:monitor",
 }
 
 #: Optional top-level packages -> the extra of openair-kit that installs them (pyproject.toml).

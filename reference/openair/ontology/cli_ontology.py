@@ -224,6 +224,7 @@ def _infer_source(
 @click.option("--from", "server", metavar="HOST:PORT", help="Retrieve a running server's history.")
 @click.option("--from-store", "store", metavar="sqlite:PATH", help="Read a server's SQLite store.")
 @click.option("--from-file", "file", metavar="FILE.xml", help="Read an <objectcollection> file.")
+@click.option("--from-recording", "recording", metavar="FILE", help="Read an openair record file.")
 @_whiteboard_option
 @click.option("--name", default=None, help="The ontology's name (default: from the source).")
 @click.option("-o", "--output", required=True, metavar="FILE", help="Where to write ('-': stdout).")
@@ -231,6 +232,7 @@ def infer(
     server: str | None,
     store: str | None,
     file: str | None,
+    recording: str | None,
     whiteboards: tuple[str, ...],
     name: str | None,
     output: str,
@@ -240,10 +242,17 @@ def infer(
     Each type gets its message count, first and last time, posters and an example of its
     content; descriptions are left for you to write.
     """
-    if len([s for s in (server, store, file) if s]) != 1:
-        raise _fail("give exactly one of --from, --from-store and --from-file")
+    if len([s for s in (server, store, file, recording) if s]) != 1:
+        raise _fail("give exactly one of --from, --from-store, --from-file and --from-recording")
     try:
-        history = _infer_source(server, store, file, whiteboards)
+        if recording:
+            from openair.recording import history_of  # lazily: only this source needs it
+
+            history = history_of(recording)
+            for note in history.notes:  # a recording cut short says so
+                click.echo(f"warning: {note}", err=True)
+        else:
+            history = _infer_source(server, store, file, whiteboards)
     except HistoryConnectError as exc:
         raise _fail(str(exc), EXIT_CONNECT) from None
     except HistoryError as exc:

@@ -11,6 +11,7 @@ PYTEST_ARGS ?=
 
 .PHONY: all venv serve test test-python lint typecheck generate check-generated bench fuzz clean deps-browser
 .PHONY: demo-worldmodel mutation
+.PHONY: stress
 
 all: test
 
@@ -49,6 +50,7 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
 	MYPYPATH=reference:conformance:examples/worldmodel $(VENV)/bin/mypy --strict examples/worldmodel
+	MYPYPATH=reference:conformance:examples/skundar/python $(VENV)/bin/mypy --strict examples/skundar/python
 
 ## Install headless Chromium, its driver and Graphviz when missing (browser tests, diagrams).
 deps-browser:
@@ -67,6 +69,13 @@ test: check-generated lint typecheck test-cpp test-java test-python
 demo-worldmodel: $(STAMP)
 	$(PY) examples/worldmodel/run_demo.py --bound 60
 
+## Skundar, the seed paper's robot (examples/skundar): Figure 1, then Figure 2, compared.
+## Builds its C++ modules and installs the Java client offline first. SKUNDAR_ARGS="--load 2".
+.PHONY: demo-skundar
+demo-skundar: $(STAMP) deps-cpp
+	cd bindings/java && mvn -o -q install -DskipTests
+	$(PY) examples/skundar/python/run_demo.py --build $(SKUNDAR_ARGS)
+
 ## Benchmarks (never part of `make test`).
 bench: $(STAMP)
 	$(PY) -m bench
@@ -79,6 +88,11 @@ MUTATION_ARGS ?= --workers 2
 mutation: $(STAMP)
 	@$(PY) -c "import cosmic_ray, coverage" 2>/dev/null || $(PY) -m pip install --quiet -e '.[mutation]'
 	$(PY) -m tools.mutation $(MUTATION_ARGS)
+
+## The attacks of issue #19 against a fresh server: held/degraded/broken, RSS, canary p99 (never
+## part of `make test`; about two minutes).
+stress: $(STAMP)
+	$(PY) -m bench.stress
 
 ## Long fuzzing runs (never part of `make test`).
 fuzz: $(STAMP)

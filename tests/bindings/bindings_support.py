@@ -74,6 +74,33 @@ BREAKS: dict[str, Break] = {
     "accept-malformed": Break(fails=("CLI-016",), evidence="not RECEIVE_ERROR"),
 }
 
+#: The stream and attachment breaks (issue #23): library faults. A binding offers them once
+#: its shim has the stream commands (tests add them with `{**breaks_without(), **STREAM_BREAKS}`).
+STREAM_BREAKS: dict[str, Break] = {
+    "push-no-ack": Break(fails=("CLI-023",), evidence="REQUEST_TIMEOUT"),
+    "wait-timeout-error": Break(fails=("CLI-022",), evidence="SAMPLE_UNKNOWN"),
+    "push-end-silent": Break(fails=("CLI-024",), evidence="REQUEST_TIMEOUT"),
+    "builtins-first": Break(fails=("CLI-021",), evidence="params[0][0]"),
+    "registration-samples-lost": Break(fails=("CLI-025",), evidence="REQUEST_TIMEOUT"),
+    "attachments-dropped": Break(fails=("CLI-030", "CLI-031"), evidence="attachments"),
+}
+
+#: Why a scenario may be not-applicable for every binding alike: the kit's server lacks it.
+SERVER_LACKS = "the server does not "  # advertise an extension, or keep attachments
+
+
+#: The Java broken shim's stream breaks (`--list-streams`; run by test_java_streams.py): the
+#: shared ones, and a library fault of its own. A Java push connection takes one sample at a
+#: time (it declares no pipelining), so an unacknowledged sample also stalls CLI-024.
+JAVA_STREAM_BREAKS: dict[str, Break] = {
+    **STREAM_BREAKS,
+    "push-no-ack": Break(fails=("CLI-023", "CLI-024"), evidence="REQUEST_TIMEOUT"),
+    "add-sample-no-binarysizes": Break(
+        fails=("CLI-021", "CLI-022", "CLI-026", "CLI-027", "CLI-028"),
+        evidence="FRAME_UNKNOWN_TAG",
+    ),
+}
+
 
 def breaks_without(*names: str) -> dict[str, Break]:
     """The table minus the breaks a binding does not offer."""
@@ -95,7 +122,15 @@ def check_every_scenario_passes(real: tuple[int, str, dict[str, Any]], library: 
     exit_code, output, report = real
     verdicts = {item["id"]: item["verdict"] for item in report["results"]}
     assert list(verdicts) == [s.info.id for s in load_scenarios()]
-    assert {id_: v for id_, v in verdicts.items() if v != Verdict.PASS.value} == {}, output
+    lacking = {  # e.g. attachments, until the reference server advertises them
+        item["id"]
+        for item in report["results"]
+        if item["verdict"] == Verdict.NOT_APPLICABLE.value
+        and item.get("message", "").startswith(SERVER_LACKS)
+    }
+    assert {
+        id_: v for id_, v in verdicts.items() if v != Verdict.PASS.value and id_ not in lacking
+    } == {}, output
     assert exit_code == 0, output
     assert report["server"]["server"] == library
     assert report["server"]["protocol"] == "openair-shim/1"

@@ -162,8 +162,8 @@ void client::impl::bind_and_receive() {
 void client::impl::send_registration() {
     message msg = make_message("AIR.Subscribe", opt.name, aircentral);
     msg.language = "xml";
-    msg.content =
-        encode_registration(opt.name, reg->triggers, reg->retrieves, reg->allow_self_triggering);
+    msg.content = encode_registration(opt.name, reg->triggers, reg->retrieves,
+                                      reg->allow_self_triggering, reg->streams);
     msg.content_is_xml = true;
     auto [sent, reply] = request(std::move(msg));
     expect(sent, reply, "RECEIVE_ACCEPT");  // OA-REG-7
@@ -247,6 +247,8 @@ std::size_t client::impl::dispatch() {
                 if (on_wakeup) on_wakeup(*w);
             } else if (auto* m = std::get_if<message_event>(&d.event)) {
                 if (on_message) on_message(*m);
+            } else if (auto* r = std::get_if<received_sample>(&d.event)) {
+                if (on_sample) on_sample(*r);
             }
         } catch (...) {
             failure = std::current_exception();
@@ -276,6 +278,14 @@ void client::impl::close_all() noexcept {
     for (auto& a : accepted) {
         if (!a->dead) (void)detail::write_some(a->fd.get(), a->out);
     }
+    for (auto& e : extra) {
+        if (!e->dead) (void)detail::write_some(e->fd.get(), e->out);
+    }
+    extra.clear();
+    for (auto& sub : subscriptions) {
+        if (!sub->ended) sub->ended = error(errc::connection_closed, "the client is closed");
+    }
+    for (auto& [target, st] : streams) st->conn_id = 0;
     accepted.clear();
     callback.reset();
     listener.reset();
@@ -315,6 +325,10 @@ void client::on_dropped_delivery(std::function<void(const std::string& reason)> 
     self().on_dropped = std::move(callback);
 }
 
+void client::on_sample(std::function<void(const received_sample&)> callback) {
+    self().on_sample = std::move(callback);
+}
+
 std::size_t client::poll(std::chrono::milliseconds timeout) {
     impl& s = self();
     if (s.in_callback) throw error(errc::api_misuse, "poll() called from inside a callback");
@@ -325,8 +339,8 @@ std::size_t client::poll(std::chrono::milliseconds timeout) {
         // Deliveries already queued go out at once: a legacy server sends nothing more until
         // they are acknowledged (OA-DELIV-5), so waiting for traffic would only add latency.
         s.pump(s.inbox.empty() ? deadline : steady::now());
-    } while (s.inbox.empty() && steady::now() < deadline);
-    return s.dispatch();
+    } while (s.inbox.empty() && !s.subscription_waiting() && steady::now() < deadline);
+    return s.dispatch() + s.dispatch_subscriptions();
 }
 
 namespace {
@@ -400,12 +414,14 @@ std::vector<message> client::post_many(std::vector<message> messages) {
 }
 
 void client::subscribe(std::vector<trigger> triggers, std::vector<retrieve_spec> retrieves,
-                       bool allow_self_triggering) {
+                       bool allow_self_triggering, std::vector<std::string> streams) {
     impl& s = self();
-    (void)encode_registration(s.opt.name, triggers, retrieves, allow_self_triggering);  // validate
+    (void)encode_registration(s.opt.name, triggers, retrieves, allow_self_triggering,
+                              streams);  // validate first
     s.ensure_connected(steady::now() + s.opt.request_timeout);
     std::optional<impl::registration> previous = std::move(s.reg);
-    s.reg = impl::registration{std::move(triggers), std::move(retrieves), allow_self_triggering};
+    s.reg = impl::registration{std::move(triggers), std::move(retrieves), allow_self_triggering,
+                               std::move(streams)};
     try {
         s.send_registration();
     } catch (...) {
@@ -427,7 +443,7 @@ std::vector<message> client::retrieve(const std::vector<retrieve_spec>& specs,
     auto [sent, reply] = s.request(std::move(msg));
     expect(sent, reply, sent.type + ".Success");  // OA-RET-7
     try {
-        return parse_message_collection(reply.content);
+        return parse_message_collection(reply.content, std::move(reply.binary));  // OA-RET-19
     } catch (const error&) {
         throw request_failed(sent, reply);
     }

@@ -20,7 +20,9 @@ using steady = std::chrono::steady_clock;
 
 namespace detail {
 
-enum class conn_kind { primary, callback, accepted };
+/// primary, callback and accepted as before; `stream`: a stream handle's requester connection;
+/// `push`: a push subscription (responder after its Receive frame, OA-STREAM-8).
+enum class conn_kind { primary, callback, accepted, stream, push };
 
 /// One TCP connection and its sans-I/O session.
 struct connection {
@@ -41,13 +43,40 @@ struct connection {
         std::string content;
     };
     std::deque<answer_slot> answers;
+    /// Requests sent on a stream connection, awaiting replies in order (OA-SESS-33).
+    std::deque<std::uint64_t> tickets;
 };
 
 /// A delivery waiting for `poll` to hand it to a callback.
 struct delivery {
     int conn_id = 0;
     std::uint64_t seq = 0;  // 0: nothing to acknowledge (noreply)
-    std::variant<wakeup_event, message_event> event;
+    std::variant<wakeup_event, message_event, received_sample> event;
+};
+
+/// A stream handle's state (stream.hpp): its target, its connection and its learnt name.
+struct stream_state {
+    client::impl* owner = nullptr;
+    std::string target;
+    std::string name;
+    int conn_id = 0;  // 0: not open
+    std::unique_ptr<openair::stream> handle;
+};
+
+/// A push subscription's state: its connection, the local buffer, how it ended.
+struct subscription_state {
+    client::impl* owner = nullptr;
+    std::string target;
+    int conn_id = 0;
+    std::size_t buffer = 100;
+    std::deque<received_sample> queue;
+    std::deque<std::uint64_t> held;  // DATASAMPLEs not acknowledged yet (the buffer was full)
+    std::function<void(const received_sample&)> callback;
+    std::optional<error> ended;  // set when the push connection ended (or was refused)
+    bool closed = false;
+    std::uint64_t received = 0;
+    std::uint64_t dropped = 0;
+    std::unique_ptr<stream_subscription> handle;
 };
 
 }  // namespace detail
@@ -62,6 +91,10 @@ struct client::impl {
     std::unique_ptr<detail::connection> primary;
     std::unique_ptr<detail::connection> callback;
     std::vector<std::unique_ptr<detail::connection>> accepted;
+    std::vector<std::unique_ptr<detail::connection>> extra;  // stream and push connections
+    std::map<std::string, std::unique_ptr<detail::stream_state>> streams;
+    std::vector<std::unique_ptr<detail::subscription_state>> subscriptions;
+    std::function<void(const received_sample&)> on_sample;
     detail::fd_handle listener;
     std::optional<std::uint16_t> listening_port;
     int next_conn_id = 1;
@@ -87,6 +120,7 @@ struct client::impl {
         std::vector<trigger> triggers;
         std::vector<retrieve_spec> retrieves;
         bool allow_self_triggering = false;
+        std::vector<std::string> streams;
     };
     std::optional<registration> reg;
     steady::time_point next_attempt = steady::now();
@@ -125,6 +159,28 @@ struct client::impl {
     void maintain();
     std::size_t dispatch();
     void close_all() noexcept;
+
+    // -- client_streams.cpp: stream connections and push subscriptions ---------------------------
+    /// The handle's connection, opened (and named with GET_NAME) when needed.
+    detail::connection& stream_conn(detail::stream_state& st);
+    /// Send a request on a stream connection (waiting for a window slot); its ticket (0 for a
+    /// noreply request).
+    std::uint64_t submit_on(detail::connection& c, message msg,
+                            const std::vector<chunk_parts>* chunks, steady::time_point deadline);
+    std::uint64_t submit_binary(detail::connection& c, const chunk_parts& chunk,
+                                steady::time_point deadline);
+    /// Wait for the reply of a ticket on a stream connection.
+    message wait_on(int conn_id, std::uint64_t ticket, steady::time_point deadline);
+    /// One media command on the handle's connection, answered by its reply.
+    std::pair<message, message> media(detail::stream_state& st, message msg,
+                                      std::chrono::milliseconds extra_wait = {});
+    void queue_push(detail::connection& c, request_event& req, std::int64_t received_ns);
+    void release_held(detail::subscription_state& sub);
+    void subscription_ended(int conn_id, const std::string& reason);
+    detail::subscription_state* subscription_of(int conn_id);
+    std::size_t dispatch_subscriptions();
+    /// Whether a subscription with a callback has samples for `poll` to hand over.
+    bool subscription_waiting() const;
 };
 
 }  // namespace openair

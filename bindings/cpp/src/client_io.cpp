@@ -9,6 +9,7 @@
 
 #include "client_impl.hpp"
 #include "openair/codec.hpp"
+#include "stream_wire.hpp"
 #include "test_faults.hpp"
 
 namespace openair {
@@ -59,6 +60,9 @@ detail::connection* client::impl::find(int id) {
     for (auto& a : accepted) {
         if (a->id == id) return a.get();
     }
+    for (auto& e : extra) {
+        if (e->id == id) return e.get();
+    }
     return nullptr;
 }
 
@@ -83,6 +87,15 @@ void client::impl::drop(detail::connection& c, const std::string& reason) {
     c.sess.close();
     c.out.clear();
     if (&c == primary.get()) primary_lost(reason);
+    for (std::uint64_t t : c.tickets) {  // a stream connection's requests fail with it
+        if (dropped.erase(t) != 0) {
+            outcomes.erase(t);
+        } else {
+            outcomes[t] = error(errc::connection_closed, "stream connection lost: " + reason);
+        }
+    }
+    c.tickets.clear();
+    if (c.kind == detail::conn_kind::push) subscription_ended(c.id, reason);
 }
 
 void client::impl::primary_lost(const std::string& reason) {
@@ -116,7 +129,21 @@ void client::impl::queue_delivery(detail::connection& c, request_event& req,
     delivery_path path =
         c.kind == detail::conn_kind::callback ? delivery_path::callback : delivery_path::listener;
     std::uint64_t seq = req.needs_answer ? req.seq : 0;  // OA-MSG-15: noreply is not answered
-    if (type == wakeup_type) {
+    if (type == "DATASAMPLE") {  // OA-STREAM-14: a sample the registration brings
+        try {
+            received_sample got = detail::received_sample_of(std::move(req.msg), received_ns);
+            if (OPENAIR_FAULT(registration_samples_lost)) {  // test-only fault: acked, lost
+                if (req.needs_answer) c.answers.push_back({req.seq, true, "", ""});
+                return;
+            }
+            inbox.push_back({c.id, seq, std::move(got)});
+        } catch (const error& e) {
+            delivery_dropped("'DATASAMPLE': " + e.wire_text());
+            if (req.needs_answer)
+                c.answers.push_back({req.seq, true, "RECEIVE_ERROR", e.wire_text()});
+            return;
+        }
+    } else if (type == wakeup_type) {
         try {
             wakeup w = parse_wakeup(req.msg);
             inbox.push_back(
@@ -137,6 +164,16 @@ void client::impl::queue_delivery(detail::connection& c, request_event& req,
 void client::impl::handle_event(detail::connection& c, session_event& event,
                                 std::int64_t received_ns) {
     if (auto* reply = std::get_if<reply_event>(&event)) {
+        if (c.kind == detail::conn_kind::stream && !c.tickets.empty()) {
+            std::uint64_t ticket = c.tickets.front();
+            c.tickets.pop_front();
+            if (dropped.erase(ticket) != 0) {
+                outcomes.erase(ticket);
+            } else {
+                outcomes[ticket] = std::move(reply->msg);
+            }
+            return;
+        }
         if (&c != primary.get() || tickets.empty()) return;  // a responder session pairs nothing
         std::uint64_t ticket = tickets.front();
         tickets.pop_front();
@@ -146,7 +183,11 @@ void client::impl::handle_event(detail::connection& c, session_event& event,
             outcomes[ticket] = std::move(reply->msg);
         }
     } else if (auto* req = std::get_if<request_event>(&event)) {
-        queue_delivery(c, *req, received_ns);
+        if (c.kind == detail::conn_kind::push) {
+            queue_push(c, *req, received_ns);
+        } else {
+            queue_delivery(c, *req, received_ns);
+        }
     } else if (auto* bad = std::get_if<invalid_event>(&event)) {
         if (OPENAIR_FAULT(crash_on_malformed)) std::_Exit(3);  // test-only fault
         delivery_dropped(bad->failure.wire_text());
@@ -159,7 +200,7 @@ void client::impl::handle_event(detail::connection& c, session_event& event,
         drop(c, "closed by the server");
     } else if (auto* failed = std::get_if<failed_event>(&event)) {
         // A delivery connection that breaks mid-frame loses that delivery (OA-MSG-20).
-        if (&c != primary.get()) {
+        if (c.kind == detail::conn_kind::callback || c.kind == detail::conn_kind::accepted) {
             delivery_dropped("delivery connection closed: " + failed->failure.wire_text());
         }
         drop(c, failed->failure.what());  // OA-FRAME-9: the stream cannot be trusted any more
@@ -191,6 +232,8 @@ void client::impl::reap() {
     accepted.erase(
         std::remove_if(accepted.begin(), accepted.end(), [](const auto& a) { return a->dead; }),
         accepted.end());
+    extra.erase(std::remove_if(extra.begin(), extra.end(), [](const auto& e) { return e->dead; }),
+                extra.end());
     if (callback && callback->dead) callback.reset();
 }
 
@@ -201,7 +244,10 @@ void client::impl::pump(steady::time_point deadline) {
     auto add = [&](detail::connection* c) {
         if (c == nullptr || c->dead) return;
         short events = 0;
-        if (!inbox_full || c->kind == detail::conn_kind::primary) events |= POLLIN;
+        if (!inbox_full || c->kind == detail::conn_kind::primary ||
+            c->kind == detail::conn_kind::stream || c->kind == detail::conn_kind::push) {
+            events |= POLLIN;  // replies, and pushes (bounded by their own buffers)
+        }
         if (!c->out.empty()) events |= POLLOUT;
         fds.push_back({c->fd.get(), events, 0});
         owners.push_back(c);
@@ -209,12 +255,14 @@ void client::impl::pump(steady::time_point deadline) {
     add(primary.get());
     add(callback.get());
     for (auto& a : accepted) add(a.get());
+    for (auto& e : extra) add(e.get());
     if (listener.valid() && !inbox_full) {
         fds.push_back({listener.get(), POLLIN, 0});
         owners.push_back(nullptr);
     }
     auto now = steady::now();
-    auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now);
+    // Rounded up: a deadline less than 1 ms away would otherwise spin with poll(…, 0).
+    auto wait = std::chrono::ceil<std::chrono::milliseconds>(deadline - now);
     wait = std::clamp(wait, std::chrono::milliseconds(0), max_wait);
     int rc = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()));
     if (rc < 0 && errno != EINTR) throw error(errc::connection_closed, "poll failed");
@@ -260,6 +308,7 @@ void client::impl::pump(steady::time_point deadline) {
     stalled(primary.get());
     stalled(callback.get());
     for (auto& a : accepted) stalled(a.get());
+    for (auto& e : extra) stalled(e.get());
     reap();
 }
 

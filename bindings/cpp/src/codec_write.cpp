@@ -56,7 +56,7 @@ void write_reference(xml_writer& w, const reference& ref) {
 }
 
 /// The optional slots between isresponse and content, in canonical order (spec 3.5).
-void write_middle(xml_writer& w, const message& msg) {
+void write_middle(xml_writer& w, const message& msg, const std::vector<std::uint64_t>* sizes) {
     if (msg.inreplyto) write_reference(w, *msg.inreplyto);
     // A message received without postedTime cannot be given one here (OA-TIME-4).
     if (msg.posted) {
@@ -77,15 +77,20 @@ void write_middle(xml_writer& w, const message& msg) {
         w.text_element("wbid", digits);  // OA-MSG-13: at least 8 digits
     }
     if (!msg.netprotocol.empty()) w.text_element("netprotocol", msg.netprotocol);
-    if (!msg.binary.empty()) {  // OA-FRAME-4
-        std::string sizes;
+    std::vector<std::uint64_t> own;
+    if (sizes == nullptr) {
+        for (const std::string& chunk : msg.binary) own.push_back(chunk.size());
+        sizes = &own;
+    }
+    if (!sizes->empty()) {  // OA-FRAME-4
+        std::string list;
         std::uint64_t total = 0;
-        for (const std::string& chunk : msg.binary) {
-            if (!sizes.empty()) sizes += ',';
-            sizes += std::to_string(chunk.size());
-            total += chunk.size();
+        for (std::uint64_t size : *sizes) {
+            if (!list.empty()) list += ',';
+            list += std::to_string(size);
+            total += size;
         }
-        w.text_element("binarysizes", sizes);
+        w.text_element("binarysizes", list);
         w.text_element("totalbinarysize", std::to_string(total));
     }
 }
@@ -154,7 +159,8 @@ void write_time(xml_writer& w, std::string_view name, const air_time& t) {
     w.close();
 }
 
-void write_message(std::string& out, const message& msg) {
+void write_message(std::string& out, const message& msg,
+                   const std::vector<std::uint64_t>* chunk_sizes) {
     if (msg.type.empty()) misuse("a message needs a non-empty type");  // OA-MSG-2
     xml_writer w(out);
     w.open("message");
@@ -174,7 +180,7 @@ void write_message(std::string& out, const message& msg) {
     w.text_element("cc", msg.cc);
     w.text_element("stored", msg.stored);
     w.text_element("isresponse", msg.isresponse);
-    write_middle(w, msg);
+    write_middle(w, msg, chunk_sizes);
     write_content(w, msg);
     for (const slot& s : msg.extras) write_extra(w, s);
     w.close();

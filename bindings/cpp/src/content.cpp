@@ -5,6 +5,7 @@
 #include "numbers.hpp"
 #include "openair/error.hpp"
 #include "openair/types.hpp"
+#include "test_faults.hpp"
 #include "xml.hpp"
 
 namespace openair {
@@ -89,7 +90,8 @@ std::optional<std::uint64_t> capabilities::limit(std::string_view name) const {
 
 std::string encode_registration(const std::string& module, const std::vector<trigger>& triggers,
                                 const std::vector<retrieve_spec>& retrieves,
-                                bool allow_self_triggering) {
+                                bool allow_self_triggering,
+                                const std::vector<std::string>& streams) {
     std::string out;
     detail::xml_writer w(out);
     w.open("module");
@@ -103,6 +105,13 @@ std::string encode_registration(const std::string& module, const std::vector<tri
     if (!retrieves.empty()) {  // a <retrieves> group holds at least one retrieve
         w.open("retrieves");
         for (const retrieve_spec& r : retrieves) write_retrieve(w, r);
+        w.close();
+    }
+    for (const std::string& source : streams) {  // OA-STREAM-14
+        if (source.empty()) throw error(errc::api_misuse, "an input stream needs a source");
+        w.open("inputstream");
+        w.attribute("alias", source, "input stream");
+        w.attribute("source", source, "input stream");
         w.close();
     }
     w.close();
@@ -161,8 +170,41 @@ capabilities parse_capabilities(std::string_view content) {
 
 namespace detail {
 
+std::vector<std::string> chunk_cursor::take(const xmlNode* el) {
+    std::vector<std::string> out;
+    for (const xmlNode* slot : child_elements(el)) {
+        if (local_name(slot) != "binarysizes") continue;  // OA-MSG-3: any case
+        std::string text = inner_text(slot);  // kept: the view below points into it
+        std::string_view list = strip_ws(text);
+        while (!list.empty()) {
+            std::size_t comma = list.find(',');
+            auto size = parse_uint64(list.substr(0, comma));
+            if (!size) throw error(errc::content_invalid, "a nested binarysizes is not a list");
+            if (next_ >= chunks_.size()) {  // OA-MSG-21
+                throw error(errc::content_invalid, "fewer chunks than the nested messages list");
+            }
+            if (chunks_[next_].size() != *size) {
+                throw error(errc::content_invalid, "a chunk's size differs from its binarysizes");
+            }
+            out.push_back(std::move(chunks_[next_++]));
+            if (OPENAIR_FAULT(attachments_dropped)) out.pop_back();  // test-only fault
+            if (comma == std::string_view::npos) break;
+            list = list.substr(comma + 1);
+        }
+        break;
+    }
+    return out;
+}
+
+void chunk_cursor::finish() const {
+    if (next_ != chunks_.size()) {  // OA-MSG-21: no chunk that no nested message lists
+        throw error(errc::content_invalid, std::to_string(chunks_.size() - next_) +
+                                               " chunk(s) that no nested message lists");
+    }
+}
+
 /// Read the messages of an `<objectcollection>` element, one `<object>` each.
-std::vector<message> read_message_collection(const xmlNode* root) {
+std::vector<message> read_message_collection(const xmlNode* root, chunk_cursor* cursor) {
     if (local_name(root) != "objectcollection") {
         throw error(errc::content_invalid,
                     "expected <objectcollection>, found <" + local_name(root) + ">");
@@ -179,8 +221,10 @@ std::vector<message> read_message_collection(const xmlNode* root) {
         if (inner.size() != 1 || local_name(inner.front()) != "message") {
             throw error(errc::content_invalid, where + " must hold exactly one <message>");
         }
+        std::vector<std::string> chunks;
+        if (cursor != nullptr) chunks = cursor->take(inner.front());  // OA-MSG-21
         try {
-            out.push_back(decode_element(inner.front(), {}));
+            out.push_back(decode_element(inner.front(), std::move(chunks)));
         } catch (const error& e) {
             throw error(errc::content_invalid, where + ": " + e.detail());
         }
@@ -190,10 +234,16 @@ std::vector<message> read_message_collection(const xmlNode* root) {
 
 }  // namespace detail
 
-std::vector<message> parse_message_collection(std::string_view content) {
-    if (detail::is_blank(content)) return {};
-    detail::fragment frag = parse_content(content);
-    return detail::read_message_collection(single_root(frag, "objectcollection"));
+std::vector<message> parse_message_collection(std::string_view content,
+                                              std::vector<std::string> chunks) {
+    detail::chunk_cursor cursor(std::move(chunks));
+    std::vector<message> out;
+    if (!detail::is_blank(content)) {
+        detail::fragment frag = parse_content(content);
+        out = detail::read_message_collection(single_root(frag, "objectcollection"), &cursor);
+    }
+    cursor.finish();
+    return out;
 }
 
 }  // namespace openair

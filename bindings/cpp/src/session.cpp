@@ -2,9 +2,11 @@
 #include "openair/session.hpp"
 
 #include <chrono>
+#include <limits>
 #include <map>
 #include <utility>
 
+#include "codec_internal.hpp"
 #include "openair/codec.hpp"
 #include "openair/content.hpp"
 #include "test_faults.hpp"
@@ -98,6 +100,76 @@ message session::stamp(message msg) const {
     // OA-TIME-2: postedTime is the last act before encoding; usec only under `usec` (OA-TIME-5).
     msg.posted = air_time::from_ns(now_(), extensions_.count("usec") != 0);
     return msg;
+}
+
+void session::check_send(bool noreply) const {
+    if (state_ == st::requester) {
+        if (noreply && extensions_.count("noreply") == 0) {
+            throw error(errc::api_misuse, "noreply needs the noreply extension");  // OA-GEN-2
+        }
+        if (!noreply && in_flight_.size() >= window_) {  // OA-SESS-18, OA-LIM-7
+            throw error(errc::api_misuse,
+                        std::to_string(window_) + " request(s) already in flight");
+        }
+    }
+    if (state_ == st::responder) {
+        throw error(errc::api_misuse, "a responder connection sends only replies");  // OA-SESS-28
+    }
+}
+
+namespace {
+
+void append_header(std::string& out, frame_tag tag, std::uint64_t length) {
+    if (length > std::numeric_limits<std::uint32_t>::max()) {
+        throw error(errc::api_misuse, "a frame body of " + std::to_string(length) +
+                                          " bytes does not fit the uint32 length");
+    }
+    out += frame_tag_name(tag);
+    out += '\0';  // OA-FRAME-1
+    for (int i = 0; i < 4; ++i) out += static_cast<char>((length >> (8 * i)) & 0xFF);  // OA-FRAME-3
+}
+
+void append_chunk(std::string& out, const chunk_parts& chunk) {
+    out += chunk.head;
+    out += chunk.payload.chars();
+    out += chunk.tail;
+}
+
+}  // namespace
+
+outgoing session::send_request_parts(message msg, const std::vector<chunk_parts>& chunks) {
+    if (!msg.binary.empty()) {
+        throw error(errc::api_misuse, "send_request_parts takes its chunks apart, not in binary");
+    }
+    check_send(msg.noreply);
+    message stamped = stamp(std::move(msg));
+    std::vector<std::uint64_t> sizes;
+    std::uint64_t total = 0;
+    for (const chunk_parts& c : chunks) {
+        sizes.push_back(c.size());
+        total += c.size();
+    }
+    std::string xml;
+    detail::write_message(xml, stamped, &sizes);  // binarysizes from the parts (OA-FRAME-4)
+    std::string bytes;
+    bytes.reserve(frame_header_size + xml.size() + total);
+    append_header(bytes, frame_tag::message, xml.size());
+    bytes += xml;
+    for (const chunk_parts& c : chunks) append_chunk(bytes, c);  // the one copy of the payload
+    transition(action::send_request);
+    if (!stamped.noreply) in_flight_.push_back(stamped.id);
+    return {std::move(bytes), std::move(stamped)};
+}
+
+std::string session::send_binary(const chunk_parts& chunk) {
+    check_send(false);
+    std::string bytes;
+    bytes.reserve(frame_header_size + chunk.size());
+    append_header(bytes, frame_tag::binary, chunk.size());  // OA-FRAME-5
+    append_chunk(bytes, chunk);
+    transition(action::send_request);
+    in_flight_.emplace_back();  // OA-STREAM-11: answered with an empty isresponse
+    return bytes;
 }
 
 outgoing session::send_request(message msg) {

@@ -26,6 +26,12 @@ constexpr std::pair<std::string_view, fault> table[] = {
     {"pipelining-to-legacy", fault::pipelining_to_legacy},
     {"crash-on-malformed", fault::crash_on_malformed},
     {"accept-malformed", fault::accept_malformed},
+    {"push-no-ack", fault::push_no_ack},
+    {"wait-timeout-error", fault::wait_timeout_error},
+    {"push-end-silent", fault::push_end_silent},
+    {"builtins-first", fault::builtins_first},
+    {"registration-samples-lost", fault::registration_samples_lost},
+    {"attachments-dropped", fault::attachments_dropped},
 };
 
 }  // namespace

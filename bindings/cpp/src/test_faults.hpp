@@ -27,6 +27,13 @@ enum class fault {
     pipelining_to_legacy,  ///< keep several requests in flight whatever the server advertised
     crash_on_malformed,    ///< exit the process when a delivery cannot be read
     accept_malformed,      ///< answer a delivery that cannot be read with RECEIVE_ACCEPT
+    // streams (client_streams.cpp, stream_wire.cpp, client_io.cpp)
+    push_no_ack,                ///< never acknowledge a pushed DATASAMPLE
+    wait_timeout_error,         ///< report a wait that timed out as SAMPLE_UNKNOWN, not "none"
+    push_end_silent,            ///< report the end of a push connection as a timeout
+    builtins_first,             ///< write builtin:timestamp/seq before the writer's parameters
+    registration_samples_lost,  ///< acknowledge a registration's samples, never report them
+    attachments_dropped,        ///< read nested copies' chunks, never give them to the copies
 };
 
 /// The active fault (`none` until `select` is called).

@@ -34,13 +34,14 @@ std::map<std::string, const xmlNode*> objects(const xmlNode* dict) {
     return found;
 }
 
-std::optional<message> read_trigger(const xmlNode* el) {
+std::optional<message> read_trigger(const xmlNode* el, detail::chunk_cursor& cursor) {
     if (el == nullptr) return std::nullopt;
     if (detail::local_name(el) != "message") {
         invalid("TriggerMessage holds <" + detail::local_name(el) + ">, not a message");
     }
+    std::vector<std::string> chunks = cursor.take(el);  // OA-WAKE-10: the trigger's come first
     try {
-        return detail::decode_element(el, {});  // OA-WAKE-2: the stored copy
+        return detail::decode_element(el, std::move(chunks));  // OA-WAKE-2: the stored copy
     } catch (const error& e) {
         invalid("TriggerMessage: " + e.detail());
     }
@@ -88,7 +89,11 @@ wakeup parse_wakeup(const message& msg) {
         invalid("wakeup content is not well-formed XML: " + e.detail());
     }
     wakeup w;
-    if (frag.elements.empty()) return w;  // a phase update without a phase (spec 8.8)
+    detail::chunk_cursor cursor(msg.binary);  // attachments (OA-WAKE-10, OA-MSG-21)
+    if (frag.elements.empty()) {
+        cursor.finish();
+        return w;  // a phase update without a phase (spec 8.8)
+    }
     if (frag.elements.size() != 1 ||
         detail::local_name(frag.elements.front()) != "objectdictionary") {
         invalid("wakeup content must be one <objectdictionary>");  // OA-WAKE-1
@@ -98,10 +103,11 @@ wakeup parse_wakeup(const message& msg) {
         auto it = found.find(name);
         return it == found.end() ? nullptr : it->second;
     };
-    w.trigger = read_trigger(get("TriggerMessage"));
+    w.trigger = read_trigger(get("TriggerMessage"), cursor);
     if (const xmlNode* retrieved = get("RetrievedMessages")) {
-        w.retrieved = detail::read_message_collection(retrieved);  // OA-WAKE-3
+        w.retrieved = detail::read_message_collection(retrieved, &cursor);  // OA-WAKE-3
     }
+    cursor.finish();
     w.phase = read_phase(get("PhaseSpec"));
     if (w.phase) w.lasttrigger = w.phase->lasttrigger;
     return w;

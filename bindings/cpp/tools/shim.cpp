@@ -20,6 +20,7 @@
 
 #include "openair/client.hpp"
 #include "openair/version.hpp"
+#include "shim_streams.hpp"
 
 namespace openair::shim {
 
@@ -79,6 +80,7 @@ json message_json(const openair::message& m) {
         {"wbid", optional_json(m.wbid)},
         {"content", m.content},
         {"xml", m.content_is_xml},
+        {"attachments", attachments_json(m)},
     };
 }
 
@@ -191,6 +193,10 @@ private:
             if (client_) client_->close();
             return false;
         }
+        if (name.rfind("stream-", 0) == 0 || name == "await-sample" || name == "alarms-subscribe" ||
+            name == "await-alarm") {
+            if (streams_.run(connected(), name, cmd, out)) return true;
+        }
         throw openair::error(openair::errc::api_misuse, "unknown command " + name);
     }
 
@@ -212,6 +218,7 @@ private:
         if (client_) client_->close();
         client_.emplace(openair::client::connect(options));
         client_->on_wakeup([this](const openair::wakeup_event& e) { wakeups_.push_back(e); });
+        streams_.attach(*client_);
         out["bound_port"] = client_->bound_port();
         out["legacy"] = client_->legacy();
         return true;
@@ -231,7 +238,8 @@ private:
                 retrieves.push_back(spec_from(r));
             }
         }
-        connected().subscribe(triggers, retrieves, flag(cmd, "allowselftriggering", false));
+        connected().subscribe(triggers, retrieves, flag(cmd, "allowselftriggering", false),
+                              strings(cmd, "streams"));  // OA-STREAM-14
         return true;
     }
 
@@ -240,6 +248,9 @@ private:
         options.content_is_xml = flag(cmd, "xml", false);
         options.cc = strings(cmd, "cc");
         if (const json* p = member(cmd, "priority")) options.priority = p->get<double>();
+        for (const std::string& chunk : strings(cmd, "attachments")) {
+            options.binary.push_back(base64_decode(chunk));  // attachments: binary chunks
+        }
         std::string to = cmd.at("to").get<std::string>();
         std::string type = cmd.at("type").get<std::string>();
         std::string content = text(cmd, "content");
@@ -285,6 +296,7 @@ private:
     const hooks& hooks_;
     std::optional<openair::client> client_;
     std::deque<openair::wakeup_event> wakeups_;
+    stream_commands streams_;
 };
 
 }  // namespace

@@ -64,6 +64,7 @@ def behaviour_for(spec: PeerSpec, expand: Callable[[str], str]) -> Behaviour:
         delay_replies_to="" if breaks else on_type,
         cut_reply_to=on_type if spec.kind == "close-mid-frame" else "",
         malform_reply_to=on_type if spec.kind == "malformed-frame" else "",
+        drop_push_after=spec.drop_after if spec.kind == "drop-push" else 0,
     )
 
 

@@ -20,11 +20,12 @@ from openair.catalogue import load_catalogue
 from openair_conformance.clientmode.kit import DEFAULT_REPLY, KitClient, delivery, message_json
 from openair_conformance.clientmode.peers import Peer, start_peer
 from openair_conformance.clientmode.scenario import Expect, Scenario, Step
+from openair_conformance.clientmode.streamsteps import stream_steps
 from openair_conformance.clientmode.tap import Capture, TapConn, WireFrame
 from openair_conformance.clientmode.values import MISSING, Values, evaluate, lookup, render
 from openair_conformance.clientmode.wirechecks import WireContext, run_checks
 from openair_conformance.harness.trace import Trace
-from openair_conformance.model import Fail
+from openair_conformance.model import Fail, NotApplicable
 from openair_conformance.shim.driver import ShimDriver, ShimError
 
 __all__ = ["DEADLINE_S", "LATENCY_MEASURE", "ScenarioRun"]
@@ -82,6 +83,8 @@ class ScenarioRun:
             "deliver": self._deliver,
             "settle": self._settle,
         }
+        self._steps.update(stream_steps(self))  # call, require, kit streams (streamsteps.py)
+        self.background: list[asyncio.Task[None]] = []  # kit writes that a later step awaits
 
     @property
     def deadline(self) -> float:
@@ -153,6 +156,11 @@ class ScenarioRun:
         return failure
 
     async def _cleanup(self) -> None:
+        for task in self.background:
+            task.cancel()
+        for outcome in await asyncio.gather(*self.background, return_exceptions=True):
+            if isinstance(outcome, Exception):
+                self.trace.note(f"a background kit step failed: {outcome}", "kit")
         driver = self.driver
         if driver is not None:
             if driver.running and not self.shim_closed:
@@ -212,6 +220,8 @@ class ScenarioRun:
         actual = lookup(result, expect.path)
         if evaluate(expect, actual, wanted):
             return
+        if actual is MISSING and ".attachments" in f".{expect.path}":
+            raise NotApplicable("the shim does not report attachments (PROTOCOL.md)")
         shown = render(actual) if actual is not MISSING else "absent"
         raise self._fail(
             f"{step.kind} (line {step.line}): {expect.path} is {shown!r}; "

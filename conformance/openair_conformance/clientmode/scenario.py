@@ -110,6 +110,7 @@ class PeerSpec:
     kind: str = "reference"
     delay_ms: int = 0
     on_type: str = ""
+    drop_after: int = 0  # drop-push: close the push connection after this many samples
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -218,6 +219,7 @@ def parse_scenario(data: bytes, source: str = "<bytes>") -> Scenario:
             kind=peer.get("kind", "reference"),
             delay_ms=int(peer.get("delay-ms", "0")),
             on_type=peer.get("on-type", ""),
+            drop_after=int(peer.get("drop-after", "1" if peer.get("kind") == "drop-push" else "0")),
         ),
         steps=tuple(_step(el) for el in _elements(_elements(root, "steps")[0])),
         wire_checks=checks,

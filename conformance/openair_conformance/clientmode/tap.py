@@ -15,7 +15,8 @@ check it (`AckRecord`), and swallow the answers to requests the kit injected (`T
 
 `Behaviour` makes the tap misbehave on purpose for the scripted peers: keep the `Receive` frame
 from the server, answer GET_CAPABILITIES itself with UNKNOWN_COMMAND, delay replies, cut a reply
-in the middle and close, or replace a reply with malformed XML.
+in the middle and close, replace a reply with malformed XML, or close a push connection after
+some samples.
 """
 
 from __future__ import annotations
@@ -71,6 +72,7 @@ class Behaviour:
     delay_replies_to: str = ""  # slow: only replies to requests of this type pattern ("" = all)
     cut_reply_to: str = ""  # close-mid-frame: a type pattern
     malform_reply_to: str = ""  # malformed-frame: a type pattern
+    drop_push_after: int = 0  # drop-push: close a push connection after this many DATASAMPLEs
 
 
 @dataclass(slots=True)
@@ -191,6 +193,7 @@ class TapConn:
         self.closed = False
         self.closed_by = ""
         self.kept_receive = False
+        self.pushed = 0  # DATASAMPLE requests the server sent here (drop-push)
         self._tasks: list[asyncio.Task[None]] = []
 
     @property
@@ -334,6 +337,18 @@ class TapConn:
         if self.kind in (ConnKind.CALLBACK, ConnKind.LISTENER):
             self._expect_answer(wire, "server")
         await self._drain_library()
+        if wire.message is not None and wire.message.type == "DATASAMPLE":
+            await self._maybe_drop_push()
+
+    async def _maybe_drop_push(self) -> None:
+        """drop-push: close a push connection once it has carried its last sample."""
+        self.pushed += 1
+        limit = self.tap.behaviour.drop_push_after
+        if self.kind is ConnKind.CALLBACK and limit and self.pushed >= limit:
+            self.capture.trace.note(
+                f"the kit closes this push connection after {self.pushed} sample(s)", self.label
+            )
+            await self.close("kit")
 
     async def _misbehave(self, frame: Frame, request: WireFrame | None) -> bool:
         """Apply the behaviour to the reply to `request`; True when the reply was handled."""

@@ -29,6 +29,7 @@ __all__ = [
     "PROTOCOL",
     "SCHEMA_PATH",
     "STDERR_KEEP",
+    "STREAM_COMMANDS",
     "ShimDriver",
     "ShimError",
     "ShimInfo",
@@ -44,6 +45,26 @@ STDERR_KEEP = 64 * 1024
 MAX_LINE = 64 * 1024 * 1024  # a retrieve answer may hold many messages
 COMMANDS = frozenset(
     {"connect", "register", "post", "post-noreply", "retrieve", "await-wakeup", "close"}
+)
+#: The optional commands of streams (PROTOCOL.md, "Streams and attachments").
+STREAM_COMMANDS = frozenset(
+    {
+        "stream-open",
+        "stream-add",
+        "stream-add-many",
+        "stream-read",
+        "stream-wait",
+        "stream-info",
+        "stream-search",
+        "stream-lock",
+        "stream-unlock",
+        "stream-subscribe",
+        "stream-next",
+        "stream-unsubscribe",
+        "await-sample",
+        "alarms-subscribe",
+        "await-alarm",
+    }
 )
 
 LineObserver = Callable[[str, str], None]  # (direction "out" | "in", the line's text)
@@ -244,7 +265,7 @@ class ShimDriver:
 
     async def command(self, cmd: str, fields: Mapping[str, Any], timeout: float) -> dict[str, Any]:
         """Send one command and return its checked answer; ShimProtocolError otherwise."""
-        if cmd not in COMMANDS:
+        if cmd not in COMMANDS and cmd not in STREAM_COMMANDS:
             raise ValueError(f"not a shim command: {cmd!r}")
         async with self._lock:  # the kit never pipelines commands (PROTOCOL.md)
             self._seq += 1

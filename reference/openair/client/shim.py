@@ -14,6 +14,7 @@ postedTime) is the library's, which is what the kit judges.
 from __future__ import annotations
 
 import asyncio
+import base64
 import json
 import logging
 import sys
@@ -23,6 +24,7 @@ from typing import Any
 
 from openair.client.module import Module, WakeupEvent
 from openair.client.session import CLIENT_EXTENSIONS
+from openair.client.shim_streams import StreamCommands, decode_b64
 from openair.content import RetrieveSpec, Trigger
 from openair.errors import ApiMisuseError, OpenAIRError
 from openair.message import Message
@@ -73,6 +75,7 @@ def message_object(msg: Message) -> Json:
         "wbid": msg.wbid,
         "content": msg.content,
         "xml": msg.content_is_xml,
+        "attachments": [base64.b64encode(chunk).decode("ascii") for chunk in msg.binary],
     }
 
 
@@ -139,6 +142,8 @@ class Shim:
             "await-wakeup": self.await_wakeup,
             "close": self.close,
         }
+        self.streams = StreamCommands(self._module)
+        self._commands.update(self.streams.commands)  # PROTOCOL.md, "Streams"
 
     async def handle(self, command: Json) -> Json:
         """Run one command and return its answer (success fields, or the error)."""
@@ -188,12 +193,16 @@ class Shim:
             [_trigger(t) for t in command.get("triggers", [])],
             [_retrieve_spec(r) for r in command.get("retrieves", [])],
             allow_self_triggering=bool(command.get("allowselftriggering", False)),
+            streams=[str(s) for s in command.get("streams", [])],  # OA-STREAM-14
         )
         return {}
 
     async def _post(self, command: Json, *, noreply: bool) -> Json:
         cc = command.get("cc", [])
         priority = command.get("priority")
+        attachments = command.get("attachments") or []
+        if not isinstance(attachments, list):
+            raise ApiMisuseError("attachments must be a list of base64 strings")
         sent = await self._module().post(
             str(command["to"]),
             str(command["type"]),
@@ -202,6 +211,7 @@ class Shim:
             priority=None if priority is None else float(priority),
             content_is_xml=bool(command.get("xml", False)),
             noreply=noreply,
+            binary=[decode_b64(chunk) for chunk in attachments],
         )
         return {"id": sent.id}
 

@@ -16,6 +16,7 @@
 #include "openair/frame.hpp"
 #include "openair/message.hpp"
 #include "openair/session.hpp"
+#include "openair/stream.hpp"
 
 namespace openair {
 
@@ -78,7 +79,7 @@ struct post_options {
     std::optional<double> priority;
     std::string language;
     bool content_is_xml = false;
-    std::vector<std::string> binary;  ///< chunks sent after the XML (OA-FRAME-4)
+    std::vector<std::string> binary;  ///< chunks sent after the XML (OA-FRAME-4): attachments
 };
 
 /// REQUEST_FAILED: the peer answered a request with a failure reply (OA-GEN-3).
@@ -124,6 +125,9 @@ public:
     /// requires and counted in `undecodable_deliveries` (OA-MSG-20). Without a callback the
     /// reason is written to std::clog. Runs while the client reads: it must not call the client.
     void on_dropped_delivery(std::function<void(const std::string& reason)> callback);
+    /// Called by `poll` for each stream sample a registration brings (`subscribe(…, streams)`,
+    /// OA-STREAM-14); acknowledged after the callback returned, like a wakeup.
+    void on_sample(std::function<void(const received_sample&)> callback);
 
     /// Wait up to `timeout` for deliveries and hand every queued one to its callback; return
     /// how many were handed over. Also keeps the session alive (KEEPALIVE) and reconnects a
@@ -146,8 +150,11 @@ public:
     /// Replace the module's registration (OA-REG-1) with AIR.Subscribe in the module form
     /// (OA-REG-3) to AIRCentral; it is sent again after a reconnect. Patterns are validated
     /// first (PATTERN_INVALID).
+    /// `streams` names streams (by name, type or type pattern) whose samples the registration
+    /// brings as deliveries: each an `<inputstream source="S">` (OA-STREAM-14), handed to
+    /// `on_sample`.
     void subscribe(std::vector<trigger> triggers, std::vector<retrieve_spec> retrieves = {},
-                   bool allow_self_triggering = false);
+                   bool allow_self_triggering = false, std::vector<std::string> streams = {});
     /// Retrieve stored messages, newest first (OA-RET-6): AIR.Retrieve for one spec,
     /// AIR.Retrieves for several (OA-RET-1).
     [[nodiscard]] std::vector<message> retrieve(const std::vector<retrieve_spec>& specs,
@@ -162,6 +169,22 @@ public:
     void reconnect();
     /// Close every connection; later requests throw CONNECTION_CLOSED.
     void close() noexcept;
+
+    // -- streams (spec section 11; stream.hpp) ------------------------------------------------
+    /// The handle of the stream named (or, under typed-streams, typed) `target`: one per target,
+    /// owned by the client. Its connection opens on first use.
+    [[nodiscard]] openair::stream& stream(const std::string& target);
+    /// Open a push subscription to a stream (RECEIVE_NAME_NOTIFICATION on a connection of its
+    /// own, OA-STREAM-8) and wait until the server counts it (GET_INFO `subscribers`).
+    /// STREAM_UNKNOWN when the server refuses it. Owned by the client.
+    [[nodiscard]] stream_subscription& subscribe_stream(const std::string& target,
+                                                        std::size_t buffer = 100);
+    /// Subscribe to stream alarms matching `pattern` (on `whiteboard`, default any) through a
+    /// companion module (OA-XSTREAM-6).
+    [[nodiscard]] alarm_subscription alarms(const std::string& pattern = std::string(alarm_pattern),
+                                            const std::string& whiteboard = "");
+    /// Every stream of the server (GET_STREAMS to CNS, OA-STREAM-16).
+    [[nodiscard]] std::vector<stream_info> list_streams();
 
     [[nodiscard]] bool connected() const noexcept;
     /// True when the server answered GET_CAPABILITIES with anything but CAPABILITIES.
@@ -180,6 +203,11 @@ public:
     [[nodiscard]] const std::string& name() const noexcept;
 
 private:
+    friend class openair::stream;
+    friend class stream_subscription;
+    friend class stream_lock;
+    friend struct detail::stream_state;
+    friend struct detail::subscription_state;
     struct impl;
     explicit client(std::unique_ptr<impl> state) noexcept;
     impl& self() const;

@@ -74,10 +74,13 @@ struct wakeup {
 /// AIR.Subscribe content in the module form (OA-REG-3): `<module name [allowselftriggering]>`
 /// holding `<triggers>` and `<retrieves>` groups. Throws PATTERN_INVALID for an invalid
 /// pattern (OA-MATCH-7) and API_MISUSE for characters XML cannot carry.
+/// `streams` adds one `<inputstream alias="S" source="S"/>` per name, type or type pattern S
+/// (OA-STREAM-14).
 [[nodiscard]] std::string encode_registration(const std::string& module,
                                               const std::vector<trigger>& triggers,
                                               const std::vector<retrieve_spec>& retrieves = {},
-                                              bool allow_self_triggering = false);
+                                              bool allow_self_triggering = false,
+                                              const std::vector<std::string>& streams = {});
 /// One `<retrieve>` (AIR.Retrieve content); `latest` is always written.
 [[nodiscard]] std::string encode_retrieve(const retrieve_spec& spec);
 /// `<retrieves>` (AIR.Retrieves content); at least one spec (API_MISUSE otherwise).
@@ -86,8 +89,11 @@ struct wakeup {
 /// Read a `<capabilities protocol server>` element (OA-CAP-1); CONTENT_INVALID when it is not.
 [[nodiscard]] capabilities parse_capabilities(std::string_view content);
 /// Read an `<objectcollection>` of stored copies (OA-RET-7); empty content is no message.
-/// CONTENT_INVALID when it is something else.
-[[nodiscard]] std::vector<message> parse_message_collection(std::string_view content);
+/// `chunks` are the reply frame's chunks: each copy gets those its own `binarysizes` lists, in
+/// document order (its attachments, OA-RET-19, OA-MSG-21). CONTENT_INVALID when it is something
+/// else, or the chunks do not match the copies' lists.
+[[nodiscard]] std::vector<message> parse_message_collection(std::string_view content,
+                                                            std::vector<std::string> chunks = {});
 /// Take an `AIR.Instruct.Wakeup` apart (spec 8.7, 8.8); CONTENT_INVALID when its content is not
 /// an objectdictionary of TriggerMessage, RetrievedMessages and PhaseSpec objects.
 [[nodiscard]] wakeup parse_wakeup(const message& msg);

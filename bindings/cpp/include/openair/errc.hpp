@@ -40,6 +40,10 @@ enum class errc : int {
     bind_refused = 303,
     /// A registration or retrieve names a whiteboard that does not exist.
     whiteboard_unknown = 304,
+    /// An AUTH_RESPONSE proof does not verify: no challenge is pending on the connection, the name has no secret, or the HMAC is wrong (extension auth).
+    auth_failed = 305,
+    /// In secure mode the connection has not proved the name the request acts for, or the request posts a type only the server sends (extension auth).
+    auth_required = 306,
     /// The AIR.Subscribe content is none of the registration forms, or a trigger lacks a type.
     registration_invalid = 400,
     /// A trigger or retrieve pattern is not a valid pattern (for example two consecutive '*').
@@ -96,6 +100,8 @@ constexpr std::string_view errc_name(errc e) noexcept {
         case errc::name_unresolved: return "NAME_UNRESOLVED";
         case errc::bind_refused: return "BIND_REFUSED";
         case errc::whiteboard_unknown: return "WHITEBOARD_UNKNOWN";
+        case errc::auth_failed: return "AUTH_FAILED";
+        case errc::auth_required: return "AUTH_REQUIRED";
         case errc::registration_invalid: return "REGISTRATION_INVALID";
         case errc::pattern_invalid: return "PATTERN_INVALID";
         case errc::retrieve_invalid: return "RETRIEVE_INVALID";
@@ -135,6 +141,8 @@ constexpr blame errc_blame(errc e) noexcept {
         case errc::name_unresolved: return blame::peer;
         case errc::bind_refused: return blame::peer;
         case errc::whiteboard_unknown: return blame::peer;
+        case errc::auth_failed: return blame::remote;
+        case errc::auth_required: return blame::peer;
         case errc::registration_invalid: return blame::remote;
         case errc::pattern_invalid: return blame::remote;
         case errc::retrieve_invalid: return blame::remote;
@@ -177,6 +185,8 @@ constexpr bool errc_closes(errc e) noexcept {
         case errc::name_unresolved: return false;
         case errc::bind_refused: return false;
         case errc::whiteboard_unknown: return false;
+        case errc::auth_failed: return false;
+        case errc::auth_required: return false;
         case errc::registration_invalid: return false;
         case errc::pattern_invalid: return false;
         case errc::retrieve_invalid: return false;
@@ -216,6 +226,8 @@ constexpr std::string_view errc_reply(errc e) noexcept {
         case errc::name_unresolved: return "RESOLVE_FAILED";
         case errc::bind_refused: return "BIND_ERROR";
         case errc::whiteboard_unknown: return "RECEIVE_ERROR";
+        case errc::auth_failed: return "RECEIVE_ERROR";
+        case errc::auth_required: return "RECEIVE_ERROR";
         case errc::registration_invalid: return "RECEIVE_ERROR";
         case errc::pattern_invalid: return "RECEIVE_ERROR";
         case errc::retrieve_invalid: return "AIR.Retrieve.Failed";
@@ -255,6 +267,8 @@ constexpr std::string_view errc_text(errc e) noexcept {
         case errc::name_unresolved: return "RESOLVE_REQUEST names nothing the server knows.";
         case errc::bind_refused: return "The module name in BIND is not a valid name, or the requested port cannot be honoured.";
         case errc::whiteboard_unknown: return "A registration or retrieve names a whiteboard that does not exist.";
+        case errc::auth_failed: return "An AUTH_RESPONSE proof does not verify: no challenge is pending on the connection, the name has no secret, or the HMAC is wrong (extension auth).";
+        case errc::auth_required: return "In secure mode the connection has not proved the name the request acts for, or the request posts a type only the server sends (extension auth).";
         case errc::registration_invalid: return "The AIR.Subscribe content is none of the registration forms, or a trigger lacks a type.";
         case errc::pattern_invalid: return "A trigger or retrieve pattern is not a valid pattern (for example two consecutive '*').";
         case errc::retrieve_invalid: return "The retrieve specification is empty, unparsable, or has an invalid criterion.";
@@ -293,6 +307,8 @@ constexpr std::optional<errc> errc_from_name(std::string_view name) noexcept {
     if (name == "NAME_UNRESOLVED") return errc::name_unresolved;
     if (name == "BIND_REFUSED") return errc::bind_refused;
     if (name == "WHITEBOARD_UNKNOWN") return errc::whiteboard_unknown;
+    if (name == "AUTH_FAILED") return errc::auth_failed;
+    if (name == "AUTH_REQUIRED") return errc::auth_required;
     if (name == "REGISTRATION_INVALID") return errc::registration_invalid;
     if (name == "PATTERN_INVALID") return errc::pattern_invalid;
     if (name == "RETRIEVE_INVALID") return errc::retrieve_invalid;

@@ -13,6 +13,7 @@
 #include <variant>
 #include <vector>
 
+#include "openair/datasample.hpp"
 #include "openair/error.hpp"
 #include "openair/frame.hpp"
 #include "openair/message.hpp"
@@ -110,6 +111,14 @@ public:
     /// slot. Throws API_MISUSE when the window is full (OA-SESS-18) or on a responder
     /// connection (OA-SESS-28), CONNECTION_CLOSED when closed.
     [[nodiscard]] outgoing send_request(message msg);
+    /// As `send_request`, with the binary chunks given as parts (`msg.binary` must be empty):
+    /// `binarysizes` is written from the parts and each payload is copied once, into the bytes
+    /// returned (ADD_SAMPLE, ADD_SAMPLES, OA-FRAME-4).
+    [[nodiscard]] outgoing send_request_parts(message msg, const std::vector<chunk_parts>& chunks);
+    /// A `BinaryM` frame carrying one chunk and no XML (OA-FRAME-5): on a connection whose
+    /// current stream is set it is an ADD_SAMPLE answered with an empty `isresponse`
+    /// (OA-STREAM-11), so it takes a window slot like any request.
+    [[nodiscard]] std::string send_binary(const chunk_parts& chunk);
     /// The `Receive` frame that makes this a callback connection (OA-SESS-7); no reply follows,
     /// and from then on the peer is the requester (OA-SESS-28).
     [[nodiscard]] outgoing send_notification(message msg);
@@ -144,6 +153,7 @@ private:
     };
 
     void transition(action a);
+    void check_send(bool noreply) const;
     [[nodiscard]] message stamp(message msg) const;
     [[nodiscard]] session_event event_for(const frame& f);
     [[nodiscard]] failed_event fail(const error& e);

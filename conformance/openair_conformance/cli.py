@@ -12,6 +12,7 @@ import contextlib
 import difflib
 import importlib
 import os
+import ssl
 import sys
 import textwrap
 from collections.abc import Callable, Iterator, Sequence
@@ -21,6 +22,7 @@ from typing import Any, TextIO, TypeVar
 
 import click
 
+from openair.auth import SecretsError, load_secrets
 from openair.catalogue import Requirement, load_catalogue
 from openair_conformance.engine import (
     DEFAULT_FAIL_ON,
@@ -236,6 +238,26 @@ class _FallbackConsole:
         self.stream.flush()
 
 
+def _secrets(path: str | None) -> dict[str, str]:
+    """Read --auth-secrets (spec 14.3); a file that cannot be used is a usage error."""
+    if path is None:
+        return {}
+    try:
+        return load_secrets(path)
+    except SecretsError as exc:
+        raise click.UsageError(f"--auth-secrets: {exc}") from exc
+
+
+def _tls(cafile: str | None) -> ssl.SSLContext | None:
+    """Read --tls-ca: a context that verifies the target against FILE (OA-AUTH-10)."""
+    if cafile is None:
+        return None
+    try:
+        return ssl.create_default_context(cafile=cafile)
+    except (ssl.SSLError, OSError) as exc:
+        raise click.UsageError(f"--tls-ca: {exc}") from exc
+
+
 def _fuzz_available() -> bool:
     try:
         importlib.import_module("openair_conformance.fuzz")
@@ -300,6 +322,20 @@ def _fuzz_available() -> bool:
     help="The stream the stream cases use (not applicable when it does not resolve).",
 )
 @click.option(
+    "--auth-secrets",
+    type=click.Path(dir_okay=False, exists=True),
+    metavar="FILE",
+    help="Secrets file (<secrets><module name secret/></secrets>) of modules the secure-mode "
+    "cases (extension auth, spec 14.3) may prove; without it they are not applicable.",
+)
+@click.option(
+    "--tls-ca",
+    type=click.Path(dir_okay=False, exists=True),
+    metavar="FILE",
+    help="Connect to the target with TLS, trusting the CA certificates (PEM) in FILE "
+    "(spec 14.3, a server in secure mode).",
+)
+@click.option(
     "--order",
     type=click.Choice(["registry", "random"]),
     default="registry",
@@ -334,6 +370,8 @@ def run_command(
     fuzz_examples: int | None,
     replay: str | None,
     stream: str,
+    auth_secrets: str | None,
+    tls_ca: str | None,
     order: str,
     seed: int | None,
     on_target_death: str,
@@ -365,6 +403,8 @@ def run_command(
             fuzz_examples=fuzz_examples,
             replay=replay,
             stream=stream,
+            auth_secrets=_secrets(auth_secrets),
+            tls=_tls(tls_ca),
             order=order,
             seed=seed,
             on_target_death="restart" if on_target_death == "restart-cmd" else on_target_death,

@@ -14,10 +14,11 @@ import math
 import random
 import secrets
 import shlex
+import ssl
 import sys
 import time
 import traceback
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -28,7 +29,8 @@ from openair_conformance.expectations import (
     load_expectations,
     unknown_entries,
 )
-from openair_conformance.harness.context import CaseContext, deadline_for
+from openair_conformance.harness.conn import TARGET_TLS
+from openair_conformance.harness.context import GRACE_FACTOR, CaseContext, deadline_for
 from openair_conformance.harness.liveness import Restarter, alive, first_unanswered
 from openair_conformance.harness.probe import TargetUnreachable, probe
 from openair_conformance.harness.trace import Trace
@@ -117,6 +119,10 @@ class RunOptions:
     #: The stream the stream cases use (spec section 11; Stream1 is offered without a
     #: configuration, OA-STREAM-15).
     stream: str = DEFAULT_STREAM
+    #: Module names and secrets the secure-mode cases prove (spec 14.3; `--auth-secrets`).
+    auth_secrets: Mapping[str, str] = field(default_factory=dict, repr=False)  # never shown
+    #: TLS towards the target (spec 14.3, OA-AUTH-10; `--tls-ca`); None: plain TCP.
+    tls: ssl.SSLContext | None = field(default=None, repr=False)
     run_id: str = field(default_factory=lambda: secrets.token_hex(2))
     probe_timeout: float = 10.0
     #: `registry` (ID order) or `random` (shuffled with `seed`; a seed is drawn when None).
@@ -330,6 +336,7 @@ class _Run:
             fuzz_examples=self.fuzz_examples,
             replay=self.options.replay,
             stream=self.options.stream,
+            secrets=self.options.auth_secrets,
         )
         self.watched[info.id] = ctx.trace
         started = time.monotonic()
@@ -339,8 +346,8 @@ class _Run:
     async def _dead(self, result: CaseResult) -> str | None:
         """Return why the target looks dead after this result, or None (cheap: one PING).
 
-        Not asked after a pass: the target has just answered. The wait is the deadline plus
-        the grace, so that a slow target is not taken for a dead one.
+        Not asked after a pass: the target has just answered. The wait is four deadlines (twice
+        the fail threshold), so that a slow target is not taken for a dead one.
         """
         if result.verdict in _ANSWERED:
             return None
@@ -437,8 +444,10 @@ class _Run:
             if divergence is None and len(ctx.trace):
                 divergence = len(ctx.trace) - 1
         if verdict == Verdict.PASS and ctx.vacuous_reason:
+            # OA-GEN-7: a pass whose precondition never happened proves nothing.
             self.vacuous.append(info.id)
-            message = f"vacuous pass: {ctx.vacuous_reason}"
+            verdict = Verdict.INCONCLUSIVE
+            message = f"vacuous: {ctx.vacuous_reason}"
         expectation = find_expectation(self.expectations, info)
         final = apply_expectation(verdict, expectation)
         if expectation is not None and final == verdict and verdict != Verdict.PASS:
@@ -500,7 +509,7 @@ def _options_record(options: RunOptions, server: ServerInfo) -> dict[str, str]:
         "jobs": str(options.jobs),
         "timeout_scale": f"{options.timeout_scale:g}",
         "deadline_s": f"{deadline:.3f}",
-        "grace_s": f"{3 * deadline:.3f}",
+        "grace_s": f"{GRACE_FACTOR * deadline:.3f}",
         "run_id": options.run_id,
         "fail_on": ",".join(sorted(v.value for v in options.fail_on)),
     }
@@ -538,9 +547,11 @@ async def run(
     Raises ExpectationError (bad expectations file), NoCasesSelected or TargetUnreachable before
     any event is emitted. Reporters are closed in every case.
     """
+    token = TARGET_TLS.set(options.tls)  # every connection of this run (spec 14.3)
     try:
         return await _run(options, reporters, cases)
     finally:
+        TARGET_TLS.reset(token)
         close_reporters(reporters)
 
 

@@ -35,6 +35,8 @@ class ErrorCode(enum.IntEnum):
     NAME_UNRESOLVED = 302
     BIND_REFUSED = 303
     WHITEBOARD_UNKNOWN = 304
+    AUTH_FAILED = 305
+    AUTH_REQUIRED = 306
     REGISTRATION_INVALID = 400
     PATTERN_INVALID = 401
     RETRIEVE_INVALID = 402
@@ -231,6 +233,32 @@ class WhiteboardUnknownError(PeerError):
     reply = "RECEIVE_ERROR"
     closes = False
     requirements = ("OA-RET-11", "OA-REG-9")
+
+
+class AuthFailedError(RemoteProtocolError):
+    """An AUTH_RESPONSE proof does not verify: no challenge is pending on the connection, the name
+    has no secret, or the HMAC is wrong (extension auth).
+    """
+
+    code = ErrorCode.AUTH_FAILED
+    name = "AUTH_FAILED"
+    blame = Blame.REMOTE
+    reply = "RECEIVE_ERROR"
+    closes = False
+    requirements = ("OA-AUTH-3",)
+
+
+class AuthRequiredError(PeerError):
+    """In secure mode the connection has not proved the name the request acts for, or the request
+    posts a type only the server sends (extension auth).
+    """
+
+    code = ErrorCode.AUTH_REQUIRED
+    name = "AUTH_REQUIRED"
+    blame = Blame.PEER
+    reply = "RECEIVE_ERROR"
+    closes = False
+    requirements = ("OA-AUTH-5", "OA-AUTH-6", "OA-AUTH-8")
 
 
 class RegistrationInvalidError(RemoteProtocolError):
@@ -434,6 +462,8 @@ ERRORS: dict[str, type[OpenAIRError]] = {
     "NAME_UNRESOLVED": NameUnresolvedError,
     "BIND_REFUSED": BindRefusedError,
     "WHITEBOARD_UNKNOWN": WhiteboardUnknownError,
+    "AUTH_FAILED": AuthFailedError,
+    "AUTH_REQUIRED": AuthRequiredError,
     "REGISTRATION_INVALID": RegistrationInvalidError,
     "PATTERN_INVALID": PatternInvalidError,
     "RETRIEVE_INVALID": RetrieveInvalidError,
@@ -461,6 +491,8 @@ def error_for(name: str) -> type[OpenAIRError]:
 __all__ = [
     "ERRORS",
     "ApiMisuseError",
+    "AuthFailedError",
+    "AuthRequiredError",
     "BinarySizesInvalidError",
     "BinaryTooLargeError",
     "BindRefusedError",

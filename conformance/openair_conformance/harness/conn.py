@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import ssl
 import time
 from collections.abc import Callable
+from contextvars import ContextVar
 from dataclasses import dataclass, replace
 
 from openair.codec import from_frame, to_frame
@@ -187,6 +189,11 @@ class FramedStream:
 CONNECT_FLOOR_S = 3.5
 
 
+#: TLS for the connections the checker opens to the target (spec 14.3, `--tls-ca`); the engine
+#: sets it for one run (its tasks inherit it). None: plain TCP.
+TARGET_TLS: ContextVar[ssl.SSLContext | None] = ContextVar("TARGET_TLS", default=None)
+
+
 async def open_stream(
     host: str, port: int, *, label: str, trace: Trace, timeout: float
 ) -> FramedStream:
@@ -197,7 +204,10 @@ async def open_stream(
     """
     timeout = max(timeout, CONNECT_FLOOR_S)
     try:
-        reader, writer = await asyncio.wait_for(asyncio.open_connection(host, port), timeout)
+        tls = TARGET_TLS.get()
+        reader, writer = await asyncio.wait_for(
+            asyncio.open_connection(host, port, ssl=tls), timeout
+        )
     except (OSError, TimeoutError) as exc:
         trace.note(f"cannot connect to {host}:{port}: {exc or 'timeout'}", label)
         raise ConnectionLost(label, f"cannot connect to {host}:{port}: {exc or 'timeout'}") from exc

@@ -1,9 +1,10 @@
 """`CaseContext`: what a case gets to work with — names, deadlines, modules, raw connections.
 
 Deadlines come from the round-trip time the probe measured: `deadline = max(1.0 s, 10 × rtt) ×
-timeout_scale`; something that arrives after the deadline but within the grace (3 × deadline)
-makes the case TIMING, nothing at all makes it FAIL (README, "Time"). There are no fixed sleeps:
-cases synchronise on protocol round trips (`TestModule.barrier`, PING).
+timeout_scale`; something that arrives after the deadline but within the grace (1 × deadline, so
+before the fail threshold of 2 × deadline) makes the case TIMING; later, or never, makes it FAIL
+(OA-GEN-6; README, "Time"). There are no fixed sleeps: cases synchronise on protocol round trips
+(`TestModule.barrier`, PING).
 
 Names isolate cases from each other so that they can run in parallel against one server: module
 names are `C<run>_<CASEID>_<suffix>` and types live under `Conf.R<run>.<CASEID>` (`type_prefix`).
@@ -14,7 +15,7 @@ from __future__ import annotations
 import asyncio
 import re
 import time
-from collections.abc import Awaitable
+from collections.abc import Awaitable, Mapping
 from typing import NoReturn, TypeVar
 
 from openair.message import Message
@@ -24,7 +25,15 @@ from openair_conformance.harness.raw import RawConnection
 from openair_conformance.harness.trace import Trace
 from openair_conformance.model import CaseInfo, Fail, ServerInfo, Timing
 
-__all__ = ["GRACE_FACTOR", "MIN_DEADLINE", "RTT_FACTOR", "CaseContext", "deadline_for"]
+__all__ = [
+    "FAIL_FACTOR",
+    "GRACE_FACTOR",
+    "MIN_DEADLINE",
+    "RTT_FACTOR",
+    "CaseContext",
+    "deadline_for",
+    "fail_threshold_for",
+]
 
 T = TypeVar("T")
 
@@ -32,13 +41,22 @@ MIN_DEADLINE = 1.0  # seconds
 #: Ten round trips: a case's step is a request, its reply and a delivery or two. (It was 100:
 #: a target answering in 0.3 s then had 30 s deadlines and 120 s waits for what never comes.)
 RTT_FACTOR = 10.0
-GRACE_FACTOR = 3.0
+#: OA-GEN-6: a timed requirement fails when its answer comes later than 2 deadlines; between
+#: one and two deadlines it is TIMING, the grey zone. (The grace was 3 deadlines, and an "at once"
+#: answer several seconds late was only ever TIMING, which fails no run.)
+FAIL_FACTOR = 2.0
+GRACE_FACTOR = FAIL_FACTOR - 1.0
 _SUFFIX_RE = re.compile(r"^[A-Za-z0-9_]*$")
 
 
 def deadline_for(rtt: float, timeout_scale: float = 1.0) -> float:
     """Return the deadline in seconds for a round-trip time `rtt` (seconds)."""
     return max(MIN_DEADLINE, RTT_FACTOR * rtt) * timeout_scale
+
+
+def fail_threshold_for(rtt: float, timeout_scale: float = 1.0) -> float:
+    """Return the time after which a timed answer is a failure, not TIMING (OA-GEN-6)."""
+    return FAIL_FACTOR * deadline_for(rtt, timeout_scale)
 
 
 class CaseContext:
@@ -57,8 +75,11 @@ class CaseContext:
         replay: str | None = None,
         trace: Trace | None = None,
         stream: str = "Stream1",
+        secrets: Mapping[str, str] | None = None,
     ) -> None:
         self.case = case
+        #: Module names and their secrets for the secure-mode cases (spec 14.3, --auth-secrets).
+        self.secrets: Mapping[str, str] = dict(secrets or {})
         self.target = target
         self.rtt = rtt
         self.timeout_scale = timeout_scale
@@ -135,6 +156,29 @@ class CaseContext:
     def grace(self) -> float:
         """Seconds to keep waiting after the deadline: arrival then is TIMING, not PASS."""
         return GRACE_FACTOR * self.deadline
+
+    @property
+    def fail_threshold(self) -> float:
+        """Seconds after which a timed answer is FAIL, not TIMING (OA-GEN-6)."""
+        return self.deadline + self.grace
+
+    def judge_elapsed(self, what: str, elapsed: float, *, limit: float | None = None) -> None:
+        """Judge an answer that came after `elapsed` s against a timed rule (OA-GEN-6).
+
+        Within `limit` (the deadline): nothing. Within the grace after it: Timing. Later:
+        Fail, because an answer that late does not meet an "at once" rule.
+        """
+        limit = self.deadline if limit is None else limit
+        if elapsed <= limit:
+            return
+        if elapsed > limit * FAIL_FACTOR:
+            self.fail(
+                f"{what} came after {elapsed:.3f} s, beyond the fail threshold "
+                f"{limit * FAIL_FACTOR:.3f} s (2 deadlines, from the measured RTT)",
+                expected=f"{what} within {limit:.3f} s",
+            )
+        self.note(f"{what} arrived after {elapsed:.3f} s (deadline {limit:.3f} s)")
+        raise Timing(f"{what} arrived after {elapsed:.3f} s; the deadline is {limit:.3f} s")
 
     async def wait(
         self, aw: Awaitable[T], *, what: str, expected: str = "", timeout: float | None = None

@@ -357,8 +357,8 @@ class TestModule:
     ) -> Message:
         """Return the first wakeup not yet taken that satisfies `predicate`.
 
-        Late (after the deadline, within the grace): Timing. Never: Fail. Wakeups that do not
-        satisfy the predicate stay for later calls.
+        Late (after the deadline, within the grace): Timing. Later or never: Fail (OA-GEN-6).
+        Wakeups that do not satisfy the predicate stay for later calls.
         """
         return await self.ctx.wait(
             self._take(self._inbox, predicate),

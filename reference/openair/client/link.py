@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import ssl
 import time
 from collections import deque
 from collections.abc import Callable
@@ -56,9 +57,10 @@ class Link:
         now: Callable[[], int],
         name: str,
         on_lost: Callable[[Link, BaseException | None], None],
+        tls: ssl.SSLContext | None = None,
     ) -> Link:
-        """Open a TCP connection and wrap it (window 1 until capabilities are known)."""
-        reader, writer = await asyncio.open_connection(host, port)
+        """Open a TCP (or TLS, OA-AUTH-10) connection and wrap it (window 1 for now)."""
+        reader, writer = await asyncio.open_connection(host, port, ssl=tls)
         return cls(reader, writer, ClientConnection(now=now, name=name), on_lost)
 
     @property

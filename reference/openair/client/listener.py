@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import ssl
 import time
 from collections.abc import Awaitable, Callable, Coroutine, Iterable
 
@@ -30,6 +31,8 @@ log = logging.getLogger("openair.client")
 Handler = Callable[[Message, int], Awaitable[str | None]]
 #: Called with the reason when a delivery is lost because it cannot be read (OA-MSG-20).
 DropHandler = Callable[[str], None]
+#: Proves the module's name on a fresh connection before its Receive frame (spec 14.3).
+Prover = Callable[[asyncio.StreamReader, asyncio.StreamWriter, ClientConnection], Awaitable[None]]
 
 _READ_SIZE = 65536
 
@@ -162,14 +165,29 @@ class Listener:
         """True while the callback connection is open."""
         return self._callback is not None and not self._callback.done()
 
-    async def open_callback(self, host: str, port: int, notification: Message) -> None:
+    async def open_callback(
+        self,
+        host: str,
+        port: int,
+        notification: Message,
+        *,
+        tls: ssl.SSLContext | None = None,
+        prove: Prover | None = None,
+    ) -> None:
         """Open the callback connection: one `Receive` frame, then serve (OA-SESS-7).
 
-        A callback connection opened earlier is closed first: the newer one replaces it.
+        A callback connection opened earlier is closed first: the newer one replaces it. In
+        secure mode `prove` proves the module's name first (OA-AUTH-6).
         """
         await self.close_callback()
-        reader, writer = await asyncio.open_connection(host, port)
+        reader, writer = await asyncio.open_connection(host, port, ssl=tls)
         conn = self._session(Role.REQUESTER)
+        if prove is not None:
+            try:
+                await prove(reader, writer, conn)
+            except BaseException:
+                writer.close()
+                raise
         writer.write(conn.send_notification(notification))
         await writer.drain()
         serve = serve_responder(reader, writer, conn, self._handler, self._on_drop)

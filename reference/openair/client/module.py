@@ -19,6 +19,7 @@ import asyncio
 import contextlib
 import inspect
 import logging
+import ssl
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -26,8 +27,9 @@ from types import TracebackType
 from typing import TYPE_CHECKING, TypeVar
 
 from openair.attachments import parse_results
+from openair.client.auth import check_secure, prove_on_link, prove_on_streams
 from openair.client.link import Link
-from openair.client.listener import Listener
+from openair.client.listener import Listener, Prover
 from openair.client.session import CLIENT_EXTENSIONS, DEFAULT_MAX_IN_FLIGHT, ClientConnection
 from openair.client.stream_wire import ReceivedSample, StreamInfo, received_sample
 from openair.content import (
@@ -159,7 +161,9 @@ class Module:
     deliveries instead of the `wakeups()` / `messages()` queues; `on_sample` receives the
     stream samples a registration's `inputstream` brings (OA-STREAM-14) instead of `samples()`.
     `keepalive` is the idle time after which KEEPALIVE is sent on the primary connection
-    (OA-KEEP-1; None disables it).
+    (OA-KEEP-1; None disables it). Secure mode (spec 14.3): `secret` proves the module's name on
+    every connection it opens (a server without `auth` is refused, OA-AUTH-12) and `tls` (an
+    `ssl.SSLContext`, e.g. `openair.client.auth.client_tls_context()`) wraps them in TLS.
     """
 
     def __init__(
@@ -183,6 +187,8 @@ class Module:
         on_sample: SampleCallback | None = None,
         inbox_size: int = 10000,
         now: Callable[[], int] = time.time_ns,
+        secret: str | None = None,
+        tls: ssl.SSLContext | None = None,
     ) -> None:
         wanted = CLIENT_EXTENSIONS if extensions is None else frozenset(extensions)
         if unknown := wanted - CLIENT_EXTENSIONS:
@@ -200,6 +206,7 @@ class Module:
         self._keepalive = keepalive
         self._on_wakeup, self._on_message, self._on_sample = on_wakeup, on_message, on_sample
         self._now = now
+        self._secret, self.tls = secret, tls  # secure mode (spec 14.3), TLS (OA-AUTH-10)
         self._wakeups: asyncio.Queue[WakeupEvent | None] = asyncio.Queue(inbox_size)
         self._messages: asyncio.Queue[MessageEvent | None] = asyncio.Queue(inbox_size)
         self._samples: asyncio.Queue[ReceivedSample | None] = asyncio.Queue(inbox_size)
@@ -302,11 +309,10 @@ class Module:
 
     async def _establish(self, *, first: bool) -> None:
         """Open the primary connection and set the session up (capabilities, bind, receive)."""
-        link = await Link.open(
-            self.host, self.port, now=self._now, name=self.name, on_lost=self._primary_lost
-        )
+        link = await self.open_link(self._primary_lost)
         try:
             await self._negotiate(link)
+            await self._prove(link)
             if self._bind:
                 await self._bind_and_receive(link)
                 if self.registration is not None:
@@ -339,6 +345,44 @@ class Module:
         self.configure_link(link)
         self._listener.extensions = self.extensions
 
+    async def open_link(self, on_lost: Callable[[Link, BaseException | None], None]) -> Link:
+        """Open a requester connection to the server, over TLS when the module has a context."""
+        return await Link.open(
+            self.host, self.port, now=self._now, name=self.name, on_lost=on_lost, tls=self.tls
+        )
+
+    async def _prove(self, link: Link) -> None:
+        """With a secret, prove the name on `link` before anything acts for it (spec 14.3)."""
+        if self._secret is None:
+            return  # legacy mode: nothing changes on the wire
+        caps = self.capabilities
+        check_secure(frozenset(caps.extensions) if caps else None)  # OA-AUTH-12
+        await prove_on_link(link, self.name, self._secret, self.request_timeout)
+
+    async def open_proved_link(self, on_lost: Callable[[Link, BaseException | None], None]) -> Link:
+        """Open a further requester connection, proving the name on it in secure mode."""
+        link = await self.open_link(on_lost)
+        try:
+            await self._prove(link)
+        except BaseException:
+            await link.close()
+            raise
+        return link
+
+    def prover(self) -> Prover | None:
+        """Return what proves the name on a callback or push connection, or None (legacy)."""
+        secret, timeout = self._secret, self.request_timeout
+        if secret is None:
+            return None
+        name = self.name
+
+        async def prove(
+            reader: asyncio.StreamReader, writer: asyncio.StreamWriter, conn: ClientConnection
+        ) -> None:
+            await prove_on_streams(reader, writer, conn, name, secret, timeout)
+
+        return prove
+
     def configure_link(self, link: Link) -> None:
         """Give a requester connection the negotiated extensions and window (OA-SESS-17)."""
         link.conn.extensions = self.extensions
@@ -368,7 +412,9 @@ class Module:
             await self._listener.listen(link.local_host, port)  # OA-DELIV-10
         if self._callback:
             note = self._declare(Message(type="RECEIVE_NAME_NOTIFICATION", sender=self.name))
-            await self._listener.open_callback(self.host, self.port, note)  # OA-SESS-7
+            await self._listener.open_callback(
+                self.host, self.port, note, tls=self.tls, prove=self.prover()
+            )  # OA-SESS-7, OA-AUTH-6
 
     async def _announce_on(self, link: Link, type_: str) -> None:
         """Post a lifecycle notice to AIRCentral, as JavaOpenAIR does (spec 6.9)."""

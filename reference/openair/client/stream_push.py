@@ -161,7 +161,7 @@ class StreamSubscription:
     async def _connect(self) -> None:
         """Open the connection and send the notification that makes it a push one."""
         module = self.module
-        reader, writer = await asyncio.open_connection(module.host, module.port)
+        reader, writer = await asyncio.open_connection(module.host, module.port, ssl=module.tls)
         # Without `pipelining` the server sends one sample at a time (OA-DELIV-5), so `buffer`
         # bounds what waits here unread; with it, up to its max-in-flight more may be on the way.
         accepted = module.extensions - (set() if self._pipelining else {"pipelining"})
@@ -171,6 +171,9 @@ class StreamSubscription:
         note = Message(type=NOTIFICATION, sender=module.name, to=self.target)
         if not module.legacy:  # OA-SESS-19: declare what this connection accepts
             note = note.with_extra("extensions", " ".join(sorted(accepted)))
+        prove = module.prover()
+        if prove is not None:  # spec 14.3: prove the name before the Receive frame (OA-AUTH-6)
+            await prove(reader, writer, conn)
         writer.write(conn.send_notification(note))  # OA-STREAM-8
         self._note = note
         loop = asyncio.get_running_loop()

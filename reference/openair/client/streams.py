@@ -151,9 +151,7 @@ class StreamHandle:
         if self._closed:
             raise ConnectionClosedError("the stream handle is closed")
         module = self.module
-        link = await Link.open(
-            module.host, module.port, now=module.clock, name=module.name, on_lost=_ignore_loss
-        )
+        link = await module.open_proved_link(_ignore_loss)  # TLS and proof in secure mode
         module.configure_link(link)
         return link
 

@@ -19,6 +19,8 @@ public enum ErrorCode {
     NAME_UNRESOLVED(302, Blame.PEER, false, "RESOLVE_REQUEST names nothing the server knows."),
     BIND_REFUSED(303, Blame.PEER, false, "The module name in BIND is not a valid name, or the requested port cannot be honoured."),
     WHITEBOARD_UNKNOWN(304, Blame.PEER, false, "A registration or retrieve names a whiteboard that does not exist."),
+    AUTH_FAILED(305, Blame.REMOTE, false, "An AUTH_RESPONSE proof does not verify: no challenge is pending on the connection, the name has no secret, or the HMAC is wrong (extension auth)."),
+    AUTH_REQUIRED(306, Blame.PEER, false, "In secure mode the connection has not proved the name the request acts for, or the request posts a type only the server sends (extension auth)."),
     REGISTRATION_INVALID(400, Blame.REMOTE, false, "The AIR.Subscribe content is none of the registration forms, or a trigger lacks a type."),
     PATTERN_INVALID(401, Blame.REMOTE, false, "A trigger or retrieve pattern is not a valid pattern (for example two consecutive '*')."),
     RETRIEVE_INVALID(402, Blame.REMOTE, false, "The retrieve specification is empty, unparsable, or has an invalid criterion."),

@@ -7,6 +7,7 @@ import java.util.Objects;
 import java.util.Set;
 import java.util.TreeSet;
 import java.util.function.LongSupplier;
+import javax.net.ssl.SSLSocketFactory;
 
 /**
  * How {@link OpenAir#connect(Options)} connects a module. Build with {@link #builder(String)}.
@@ -46,6 +47,8 @@ import java.util.function.LongSupplier;
  *     {@link Module#nextMessage(Duration)}
  * @param connectionListener hears about (re)connections and background failures, or {@code null}
  * @param clock the wall clock, in Unix nanoseconds (read as the last act before sending, OA-TIME-2)
+ * @param secret the module's secret for secure mode (spec 14.3), or {@code null} (legacy)
+ * @param sslSocketFactory TLS for every connection to the server (OA-AUTH-10), or {@code null}
  */
 public record Options(
         String name,
@@ -70,7 +73,9 @@ public record Options(
         WakeupListener wakeupListener,
         MessageListener messageListener,
         ConnectionListener connectionListener,
-        LongSupplier clock) {
+        LongSupplier clock,
+        Secret secret,
+        SSLSocketFactory sslSocketFactory) {
 
     /** The extensions this library implements (OA-EXT-1), in the order it declares them. */
     public static final Set<String> SUPPORTED_EXTENSIONS =
@@ -173,6 +178,8 @@ public record Options(
         private MessageListener messageListener;
         private ConnectionListener connectionListener;
         private LongSupplier clock = Options::systemNanos;
+        private Secret secret;
+        private SSLSocketFactory sslSocketFactory;
 
         private Builder(String name) {
             this.name = name;
@@ -202,6 +209,8 @@ public record Options(
             messageListener = o.messageListener;
             connectionListener = o.connectionListener;
             clock = o.clock;
+            secret = o.secret;
+            sslSocketFactory = o.sslSocketFactory;
         }
 
         /**
@@ -464,6 +473,32 @@ public record Options(
             return this;
         }
 
+        /**
+         * Set the module's secret for secure mode (spec 14.3): the module proves its name with
+         * it on every connection, and refuses a server that does not advertise {@code auth}
+         * (OA-AUTH-12). Default: none (legacy mode, nothing changes on the wire).
+         *
+         * @param v the secret, or null for none
+         * @return this builder
+         */
+        public Builder secret(String v) {
+            secret = v == null ? null : new Secret(v);
+            return this;
+        }
+
+        /**
+         * Connect with TLS through this factory (OA-AUTH-10), for example
+         * {@code SSLContext.getDefault().getSocketFactory()} or one built with a trust store
+         * that holds the server's certificate; the host name is verified. Default: plain TCP.
+         *
+         * @param v the factory, or null for plain TCP
+         * @return this builder
+         */
+        public Builder sslSocketFactory(SSLSocketFactory v) {
+            sslSocketFactory = v;
+            return this;
+        }
+
 
         /**
          * Build the options.
@@ -475,7 +510,8 @@ public record Options(
             return new Options(name, host, port, bind, listen, listenPort, callback, extensions,
                     requestTimeout, connectTimeout, reconnect, reconnectDelay, reconnectMaxDelay,
                     keepalive, announce, inboxSize, maxFrameXml, maxFrameBinary, maxXmlDepth,
-                    wakeupListener, messageListener, connectionListener, clock);
+                    wakeupListener, messageListener, connectionListener, clock, secret,
+                    sslSocketFactory);
         }
     }
 }

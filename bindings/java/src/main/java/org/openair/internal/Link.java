@@ -89,7 +89,20 @@ final class Link {
      */
     static Link open(String host, int port, Duration connectTimeout, Session session,
             String threadName, LostHandler onLost) {
-        Socket socket = connect(host, port, connectTimeout);
+        return open(connect(host, port, connectTimeout), session, threadName, onLost);
+    }
+
+    /**
+     * Wrap a connection already open (plain or TLS, spec 14.3) and start reading replies.
+     *
+     * @param socket the connection
+     * @param session the session (REQUESTER role)
+     * @param threadName the reader thread's name
+     * @param onLost told when the link ends unexpectedly
+     * @return the link
+     * @throws ConnectionClosedException when the connection cannot be used
+     */
+    static Link open(Socket socket, Session session, String threadName, LostHandler onLost) {
         try {
             Link link = new Link(socket, session, onLost, threadName);
             link.reader.start();

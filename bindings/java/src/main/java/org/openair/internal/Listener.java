@@ -127,8 +127,12 @@ final class Listener {
      */
     void openCallback(String host, int port, java.time.Duration timeout,
             org.openair.Message notification) {
+        openCallback(Link.connect(host, port, timeout), notification);
+    }
+
+    /** Make an open (and, in secure mode, proved) connection the callback one (OA-SESS-7). */
+    void openCallback(Socket socket, org.openair.Message notification) {
         closeCallback();
-        Socket socket = Link.connect(host, port, timeout);
         DeliveryConnection d = serve(socket, sessions.apply(Session.Role.REQUESTER), DeliveryPath.CALLBACK);
         d.announce(notification);
         synchronized (this) {

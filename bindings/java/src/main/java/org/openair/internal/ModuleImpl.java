@@ -1,6 +1,7 @@
 package org.openair.internal;
 
 import java.lang.System.Logger.Level;
+import java.net.Socket;
 import java.time.Duration;
 import java.util.ArrayList;
 import java.util.HashMap;
@@ -137,11 +138,13 @@ public final class ModuleImpl implements Module {
         synchronized (lock) {
             attempt = generation + 1;
         }
-        Link l = Link.open(o.host(), o.port(), o.connectTimeout(),
+        Link l = Link.open(Auth.connect(o, o.host(), o.port()),
                 newSession(Session.Role.REQUESTER), "openair-" + name + "-primary-" + attempt,
                 this::primaryLost);
         try {
             negotiate(l);
+            Auth.checkSecure(o, capabilities); // OA-AUTH-12
+            Auth.prove(o, l); // spec 14.3: before anything acts for the name
             if (o.bind()) {
                 bindAndReceive(l);
                 Registration reg = registration;
@@ -228,7 +231,9 @@ public final class ModuleImpl implements Module {
         }
         if (o.callback()) {
             Message note = declare(Message.builder("RECEIVE_NAME_NOTIFICATION").sender(name));
-            listener.openCallback(o.host(), o.port(), o.connectTimeout(), note); // OA-SESS-7
+            Socket socket = Auth.connect(o, o.host(), o.port());
+            Auth.prove(o, socket, newSession(Session.Role.REQUESTER)); // OA-AUTH-6
+            listener.openCallback(socket, note); // OA-SESS-7
         }
     }
 
@@ -641,10 +646,16 @@ public final class ModuleImpl implements Module {
         if (isClosed()) {
             throw new ConnectionClosedException("the module is closed");
         }
-        Link l = Link.open(o.host(), o.port(), o.connectTimeout(),
+        Link l = Link.open(Auth.connect(o, o.host(), o.port()),
                 newSession(Session.Role.REQUESTER), "openair-" + name + "-" + what,
                 (link, cause) -> LOG.log(Level.DEBUG, name + ": stream connection ended"
                         + (cause == null ? "" : ": " + cause.getMessage())));
+        try {
+            Auth.prove(o, l); // spec 14.3
+        } catch (RuntimeException e) {
+            l.close();
+            throw e;
+        }
         l.configure(window, extensions);
         return l;
     }

@@ -105,8 +105,9 @@ final class StreamSubscriptionImpl implements StreamSubscription {
         // Without pipelining the server sends one sample at a time, so `buffer` bounds what waits.
         accepted.remove("pipelining");
         Session session = module.newStreamSession(accepted);
-        Socket socket = Link.connect(module.options().host(), module.options().port(),
-                module.options().connectTimeout());
+        Socket socket = Auth.connect(module.options(), module.options().host(),
+                module.options().port());
+        Auth.prove(module.options(), socket, module.newStreamSession(accepted)); // OA-AUTH-6
         DeliveryConnection d = new DeliveryConnection(socket, session, this::handleRequest,
                 DeliveryPath.CALLBACK, module.options().clock(), this::onError,
                 (reason, error) -> LOG.log(Level.DEBUG, "push sample dropped: " + reason),

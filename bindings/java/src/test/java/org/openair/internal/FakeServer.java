@@ -44,7 +44,12 @@ final class FakeServer implements AutoCloseable {
     volatile int bindPort = 0; // 0: BIND answers the port the test set with listenOn, else this
 
     FakeServer() throws IOException {
-        server = new ServerSocket(0, 50, InetAddress.getLoopbackAddress());
+        this(new ServerSocket(0, 50, InetAddress.getLoopbackAddress()));
+    }
+
+    /** Serve on a listening socket the test made (for example a TLS one, spec 14.3). */
+    FakeServer(ServerSocket listening) {
+        server = listening;
         Thread t = new Thread(this::acceptLoop, "fake-server-accept");
         t.setDaemon(true);
         t.start();

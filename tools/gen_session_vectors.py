@@ -825,10 +825,12 @@ REG_FORMS: list[tuple[str, str, list[tuple[str, str]], str, list[str] | None, li
         '<module name="M5"><spec><context name="Some.Other.Context"><phase id="M5.Main">'
         '<triggers><trigger from="WB1" type="Reg.Ctx"/></triggers></phase></context></spec>'
         "</module>",
-        [],
-        "",
+        # Asleep for the first Reg.Ctx; the Psyclone.Context post puts its context in force
+        # (contexts extension, on in the reference server), so the second Reg.Ctx wakes it.
+        [("Reg.Ctx", "WB1")],
+        "Reg.Ctx",
         None,
-        ["OA-REG-10"],
+        ["OA-REG-10", "OA-REG-13", "OA-REG-14"],
     ),
     (
         "N1",
@@ -961,7 +963,8 @@ def s05_registration_forms() -> Session:
         "05-registration-forms",
         "Every registration form JavaOpenAIR, MARY and Greta use, the trigger from variants, "
         "after, "
-        "a phase in another context, and a root phase (ignored by Psyclone, DEV-9).",
+        "a phase in another context (woken once that context is posted), and a root phase "
+        "(ignored by Psyclone, DEV-9).",
         "psyclone-wire/10-trigger-from-and-registration.txt (frames rebuilt from its MARK lines)",
     )
     for i, (name, reg, _, _, _, reqs) in enumerate(REG_FORMS):

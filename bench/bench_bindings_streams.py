@@ -9,8 +9,7 @@ Each sample carries its send time (`bench:ns`); the client reports the write-to-
 (p50, p99), what the server dropped for it, and its own CPU time. The ratio is client / Python
 for the p50 latency and for the CPU time (below 1: better than Python). C++ runs
 `bindings/cpp/build/openair-bench stream`, Java `org.openair.shim.BenchMain stream` from
-`bindings/java/target/openair-shim.jar` (reported "not available" when that jar has no stream
-mode yet), Python this module's `stream` mode. Not part of `make test`; `python -m bench
+`bindings/java/target/openair-shim.jar`, Python this module's `stream` mode. Not part of `make test`; `python -m bench
 bindings` runs it. BENCH_STREAM_SECONDS (default 3) sets each flow's length.
 """
 
@@ -119,7 +118,6 @@ def _argv(language: str, port: int, flow: Flow) -> list[str] | None:
     java = shutil.which("java")
     if java is None or not _JAVA_JAR.is_file():
         return None
-    # TODO(java-streams): BenchMain needs this `stream` mode (same arguments, same JSON line).
     return [java, "-cp", str(_JAVA_JAR), "org.openair.shim.BenchMain", *args]
 
 

@@ -1,12 +1,22 @@
 package org.openair.shim;
 
+import java.nio.ByteBuffer;
 import java.nio.charset.StandardCharsets;
+import java.time.Duration;
+import java.util.ArrayList;
+import java.util.Collections;
+import java.util.List;
 import java.util.Locale;
+import java.util.Map;
+import java.util.Optional;
 import org.openair.AirTime;
 import org.openair.Message;
 import org.openair.Module;
 import org.openair.OpenAir;
 import org.openair.Options;
+import org.openair.ReceivedSample;
+import org.openair.StreamHandle;
+import org.openair.StreamSubscription;
 import org.openair.internal.Codec;
 
 /**
@@ -20,7 +30,14 @@ import org.openair.internal.Codec;
  * {@code {"posts": N, "seconds": S, "send_seconds": T}}: S from the first post to the PING reply,
  * T until the last post was handed to the library. Exit status 0 on success, 2 on an error.
  *
- * <p>Threading: the posts are sent from the main thread; the library's threads read replies.
+ * <p>{@code ... BenchMain stream HOST PORT STREAM SIZE RATE N} subscribes to STREAM (push), then
+ * writes N samples of SIZE bytes at RATE per second, each carrying its wall-clock send time in the
+ * parameter {@code bench:ns}, receives them on the push subscription and prints
+ * {@code {"sent", "received", "dropped", "p50_ms", "p99_ms", "cpu_s", "seconds"}}, the same line
+ * as the C++ and Python stream modes ({@code bench/bench_bindings_streams.py}).
+ *
+ * <p>Threading: the posts and samples are sent from the main thread; the library's threads read
+ * replies and pushed samples.
  */
 public final class BenchMain {
     private static final String TYPE = "Bench.Flow.Data";
@@ -35,13 +52,21 @@ public final class BenchMain {
      * @param args {@code post HOST PORT N SIZE}
      */
     public static void main(String[] args) {
-        if (args.length != 5 || !args[0].equals("post")) {
-            System.err.println("usage: BenchMain post HOST PORT N SIZE");
+        boolean isPost = args.length == 5 && args[0].equals("post");
+        boolean isStream = args.length == 7 && args[0].equals("stream");
+        if (!isPost && !isStream) {
+            System.err.println("usage: BenchMain post HOST PORT N SIZE"
+                    + " | BenchMain stream HOST PORT STREAM SIZE RATE N");
             System.exit(2);
         }
         try {
-            post(args[1], Integer.parseInt(args[2]), Integer.parseInt(args[3]),
-                    Integer.parseInt(args[4]));
+            if (isPost) {
+                post(args[1], Integer.parseInt(args[2]), Integer.parseInt(args[3]),
+                        Integer.parseInt(args[4]));
+            } else {
+                stream(args[1], Integer.parseInt(args[2]), args[3], Integer.parseInt(args[4]),
+                        Double.parseDouble(args[5]), Integer.parseInt(args[6]));
+            }
         } catch (RuntimeException e) {
             System.err.println("BenchMain: " + e);
             System.exit(2);
@@ -72,6 +97,76 @@ public final class BenchMain {
                     "{\"posts\": %d, \"seconds\": %.6f, \"send_seconds\": %.6f}",
                     n, seconds, sending));
         }
+    }
+
+    private static void stream(String host, int port, String target, int size, double rate,
+            int n) {
+        Options options = Options.builder("BenchJavaStream").server(host, port).bind(false)
+                .announce(false).reconnect(false).build();
+        List<Double> latencies = new ArrayList<>();
+        long[] dropped = {0};
+        try (Module module = OpenAir.connect(options)) {
+            StreamHandle handle = module.stream(target);
+            StreamSubscription sub = handle.subscribe(Math.max(16, n));
+            byte[] payload = new byte[size];
+            java.util.Arrays.fill(payload, (byte) 0x5A);
+            long cpu0 = cpuNanos();
+            long start = System.nanoTime();
+            long period = (long) (1e9 / rate);
+            for (int i = 0; i < n; i++) {
+                long due = start + period * i;
+                for (long left = due - System.nanoTime(); left > 0;
+                        left = due - System.nanoTime()) {
+                    take(sub.next(Duration.ofNanos(Math.max(left, 1_000_000L))), latencies,
+                            dropped);
+                }
+                long sentNs = wallNanos();
+                handle.add(ByteBuffer.wrap(payload), Map.of("bench:ns", Long.toString(sentNs)));
+            }
+            long drainUntil = System.nanoTime() + 5_000_000_000L;
+            while (latencies.size() + dropped[0] < n && System.nanoTime() < drainUntil) {
+                take(sub.next(Duration.ofMillis(100)), latencies, dropped);
+            }
+            double seconds = (System.nanoTime() - start) / 1e9;
+            double cpu = (cpuNanos() - cpu0) / 1e9;
+            Collections.sort(latencies);
+            System.out.println(String.format(Locale.ROOT,
+                    "{\"sent\": %d, \"received\": %d, \"dropped\": %d, \"p50_ms\": %.6f, "
+                            + "\"p99_ms\": %.6f, \"cpu_s\": %.6f, \"seconds\": %.6f}",
+                    n, latencies.size(), dropped[0], percentile(latencies, 0.5),
+                    percentile(latencies, 0.99), cpu, seconds));
+        }
+    }
+
+    private static void take(Optional<ReceivedSample> got, List<Double> latencies,
+            long[] dropped) {
+        if (got.isEmpty()) {
+            return;
+        }
+        ReceivedSample r = got.get();
+        dropped[0] += r.dropped();
+        r.sample().param("bench:ns").ifPresent(sent -> {
+            long nowNs = wallNanos();
+            latencies.add((nowNs - Long.parseLong(sent)) / 1e6);
+        });
+    }
+
+    private static double percentile(List<Double> sorted, double q) {
+        if (sorted.isEmpty()) {
+            return 0.0;
+        }
+        return sorted.get((int) (q * (sorted.size() - 1)));
+    }
+
+    /* Wall-clock time in ns (microsecond resolution on Linux), comparable across processes. */
+    private static long wallNanos() {
+        java.time.Instant now = java.time.Instant.now();
+        return now.getEpochSecond() * 1_000_000_000L + now.getNano();
+    }
+
+    /* The process's CPU time (all threads), as the C++ and Python modes measure it. */
+    private static long cpuNanos() {
+        return ProcessHandle.current().info().totalCpuDuration().map(Duration::toNanos).orElse(0L);
     }
 
     /* Content that makes the post's XML about size bytes (its envelope measured by encoding it). */

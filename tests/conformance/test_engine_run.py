@@ -196,6 +196,9 @@ def test_vacuous_passes_are_listed(fake_target: tuple[str, int]) -> None:
 
     summary = _run(fake_target, [_case("SYN-001", fn), _case("SYN-002", _passes)])
     assert summary.vacuous == ("SYN-001",)
+    # OA-GEN-7: a vacuous pass is inconclusive, never pass.
+    assert _by_id(summary)["SYN-001"].verdict is Verdict.INCONCLUSIVE
+    assert _by_id(summary)["SYN-002"].verdict is Verdict.PASS
     assert "nothing to compare" in _by_id(summary)["SYN-001"].message
 
 

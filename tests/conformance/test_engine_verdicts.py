@@ -272,7 +272,8 @@ def test_names_are_unique_per_case_and_run() -> None:
 def test_deadline_derives_from_rtt(rtt: float, scale: float, deadline: float) -> None:
     ctx = _ctx(rtt, scale)
     assert ctx.deadline == pytest.approx(deadline)
-    assert ctx.grace == pytest.approx(3 * deadline)
+    assert ctx.grace == pytest.approx(deadline)
+    assert ctx.fail_threshold == pytest.approx(2 * deadline)  # OA-GEN-6
 
 
 def _wait_with_result_at(delay: float | None, timeout: float) -> object:
@@ -294,15 +295,31 @@ def test_wait_on_time_returns_the_value() -> None:
 
 
 def test_wait_within_the_grace_is_timing() -> None:
-    # Timers fire in deadline order: the deadline (0.01 s) passes before the result (0.02 s),
-    # which comes before the end of the grace (0.01 + 0.03 s).
-    outcome = _wait_with_result_at(0.02, timeout=0.01)
+    # Timers fire in deadline order: the deadline (0.01 s) passes before the result (0.015 s),
+    # which comes before the fail threshold (0.01 + 0.01 s, OA-GEN-6).
+    outcome = _wait_with_result_at(0.015, timeout=0.01)
     assert isinstance(outcome, Timing) and "thing arrived after" in str(outcome)
 
 
 def test_wait_past_the_grace_is_fail_with_divergence() -> None:
     outcome = _wait_with_result_at(None, timeout=0.01)
     assert isinstance(outcome, Fail) and outcome.message.startswith("no thing within")
+
+
+@pytest.mark.parametrize(
+    ("elapsed", "outcome"),
+    [(0.5, None), (1.5, Timing), (2.5, Fail)],  # deadline 1 s, fail threshold 2 s
+)
+def test_a_late_answer_beyond_the_fail_threshold_is_fail(
+    elapsed: float, outcome: type[Exception] | None
+) -> None:
+    """OA-GEN-6: the grey zone is TIMING, beyond 2 deadlines a timed rule FAILS."""
+    ctx = _ctx(0.0001, 1.0)
+    if outcome is None:
+        ctx.judge_elapsed("the reply", elapsed)
+        return
+    with pytest.raises(outcome):
+        ctx.judge_elapsed("the reply", elapsed)
 
 
 def test_wait_on_a_lost_connection_is_fail() -> None:

@@ -15,7 +15,9 @@ nothing is patched outside the block). The mutants live in modules by spec area:
   table, pattern limits, literal pattern characters, wbid range, RESOLVE ports, callback paths);
 - mutants_contexts.py — contexts and phases (section 8.9, extension `contexts`);
 - mutants_attachments.py — issue #21: attachments, the content version, bare stream
-  registrations, `qos` (timetolive, alarm triggers) and the bounded payload search.
+  registrations, `qos` (timetolive, alarm triggers) and the bounded payload search;
+- mutants_sharpened.py — issue #15: boundaries the examples never touched (retries, time
+  windows, rare stored-copy slots, letter case, fractional priorities, every component).
 
 test_mutants.py runs the conformance cases that could catch each mutant against a server
 started with it active, and reports which cases catch which mutant.
@@ -29,6 +31,7 @@ import mutants_contexts
 import mutants_input
 import mutants_matching
 import mutants_routing
+import mutants_sharpened
 import mutants_store
 import mutants_streams
 import mutants_wire
@@ -48,4 +51,5 @@ MODULES = (
     mutants_clarified,
     mutants_contexts,
     mutants_attachments,
+    mutants_sharpened,
 )

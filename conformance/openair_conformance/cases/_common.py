@@ -269,19 +269,27 @@ def trigger_types(wakeups: Iterable[Message]) -> list[str]:
     return found
 
 
-async def raw_module(ctx: CaseContext, suffix: str) -> tuple[RawConnection, RawConnection, str]:
+async def raw_module(
+    ctx: CaseContext, suffix: str, *, extensions: tuple[str, ...] = ()
+) -> tuple[RawConnection, RawConnection, str]:
     """Bind `ctx.name(suffix)` with BIND_NOLISTEN on a raw connection and open a raw callback.
 
     Returns (primary, callback, id of the RECEIVE_NAME_NOTIFICATION). The case reads and answers
     the callback connection itself (`next_request`, `ack`). A refused BIND is INCONCLUSIVE.
+    `extensions` are declared in the `extensions` slot of both (OA-SESS-19).
     """
     name = ctx.name(suffix)
     primary = await ctx.raw(f"{suffix}/primary")
-    reply = await primary.request(Message(type="BIND_NOLISTEN", sender=name, to="CNS"))
+    bind = Message(type="BIND_NOLISTEN", sender=name, to="CNS")
+    if extensions:
+        bind = bind.with_extra("extensions", " ".join(extensions))
+    reply = await primary.request(bind)
     if reply.type != "BIND_ACCEPT":
         raise Inconclusive(f"setup: BIND_NOLISTEN was answered {reply.type} {reply.content!r}")
     callback = await ctx.raw(f"{suffix}/callback")
     notice = Message(type="RECEIVE_NAME_NOTIFICATION", sender=name)
+    if extensions:
+        notice = notice.with_extra("extensions", " ".join(extensions))
     sent = await callback.send_message(notice, FrameTag.RECEIVE)
     return primary, callback, sent.id
 

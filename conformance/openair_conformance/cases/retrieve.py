@@ -6,6 +6,7 @@ retrieve results with the table; names are prefixed, so `Ret.A.*` becomes `<pref
 
 from __future__ import annotations
 
+import asyncio
 import struct
 from dataclasses import replace
 
@@ -19,7 +20,7 @@ from openair_conformance.cases._common import (
     send_big,
 )
 from openair_conformance.harness import CaseContext, TestModule
-from openair_conformance.model import NotApplicable
+from openair_conformance.model import Inconclusive, NotApplicable
 from openair_conformance.registry import case
 
 #: The whiteboard of the examples of 9.2, oldest first: (type suffix, content).
@@ -159,16 +160,22 @@ async def contentmatch(ctx: CaseContext) -> None:
     title="lastmsec selects by receivedTime, not postedTime; 0 sets no window",
     section="9.2",
     requirements=("OA-RET-5",),
+    # Serial: a window counted from the newest message is told from one counted from now only
+    # when no other case posts to WB1 meanwhile (its posts would be the newest).
+    serial=True,
     allowed=(
         "a post with an old postedTime is within a 10-minute window",
-        "a message received more than the window before a later one is outside it",
+        "a window that ends, counted back from the whiteboard's now, after the newest message "
+        "selects none of them",
     ),
 )
 async def lastmsec(ctx: CaseContext) -> None:
-    """Post with a postedTime ten hours old; retrieve with lastmsec 600000 and 0. Then compare
-    receivedTimes the server stamped to pick a window that must exclude the oldest message.
+    """Post with a postedTime ten hours old; retrieve with lastmsec 600000 and 0. Then let the
+    server's clock pass the newest message (ticks on WB2) and retrieve with a window shorter
+    than that: nothing may be selected.
 
-    Catches: lastmsec applied to postedTime, 0 taken as an empty window, lastmsec ignored.
+    Catches: lastmsec applied to postedTime, 0 taken as an empty window, lastmsec ignored, or
+    counted back from the newest message instead of from now (issue #15).
     """
     client, sent = await _example(ctx)
     old = Message(type=ctx.type("Old"), sender=client.name, to="WB1", content="old")
@@ -182,12 +189,32 @@ async def lastmsec(ctx: CaseContext) -> None:
     await _expect(ctx, client, _spec(ctx, "Old", "<lastmsec>0</lastmsec>"), ["Old"], "OA-RET-5")
     copies = await retrieved(ctx, client, _spec(ctx, "*", "<latest>0</latest>"))
     times = [m.received.ms for m in copies if m.received is not None]
-    gap = max(times) - min(times) if times else 0
-    if gap < 2:
-        ctx.vacuous(f"the example spans {gap} ms of receivedTime; no window excludes its oldest")
-        return
-    spec = _spec(ctx, "Ret.A.1", f"<lastmsec>{gap - 1}</lastmsec>")
-    await _expect(ctx, client, spec, [], "OA-RET-5: the oldest is more than the window old")
+    if not times:
+        ctx.fail("the stored copies carry no receivedTime", expected="receivedTime (OA-WB-4)")
+    newest = max(times)
+    now = await _server_time_after(ctx, client, newest + 3)
+    # From the whiteboard's now the window ends after every example message; from the newest
+    # message (a common mistake) it would still hold it.
+    spec = _spec(ctx, "*", f"<latest>0</latest><lastmsec>{now - newest - 1}</lastmsec>")
+    await _expect(ctx, client, spec, [], "OA-RET-5: the window ends before now, not the newest")
+
+
+async def _server_time_after(ctx: CaseContext, client: TestModule, ms: int) -> int:
+    """Return a receivedTime (ms) of WB2 at or after `ms`, posting ticks there until one is.
+
+    Round trips, not a sleep: each tick is a post and a retrieve (OA-RET-5 needs the server's
+    clock to have moved past the example; Inconclusive if it does not within the deadline).
+    """
+    loop = asyncio.get_running_loop()
+    until = loop.time() + ctx.deadline
+    while loop.time() < until:
+        await client.post("WB2", ctx.type("Tick"), "tick")
+        assert client.last_sent is not None
+        tick = f'<retrieve from="WB2" id="{client.last_sent.id}"/>'
+        found = await retrieved(ctx, client, tick, to="WB2")
+        if found and found[0].received is not None and found[0].received.ms >= ms:
+            return found[0].received.ms
+    raise Inconclusive(f"the server's receivedTime did not reach {ms} ms within the deadline")
 
 
 @case(
@@ -201,7 +228,9 @@ async def time_bounds(ctx: CaseContext) -> None:
     """Read the example's receivedTimes; retrieve between the 3rd and the 6th message's times
     with a time-element child, a milliseconds child and milliseconds attributes.
 
-    Catches: exclusive bounds, bounds applied to postedTime, a form not understood.
+    Catches: exclusive bounds, bounds applied to postedTime, a form not understood, bounds
+    ignored (a post made after the upper bound, once the server's clock passed it, must be left
+    out even when the example's receivedTimes are all equal).
     """
     client, sent = await _example(ctx)
     copies = {m.id: m for m in await retrieved(ctx, client, _spec(ctx, "*", "<latest>0</latest>"))}
@@ -210,6 +239,10 @@ async def time_bounds(ctx: CaseContext) -> None:
         ctx.fail("stored copies without receivedTime", expected="OA-WB-4")
     low, high = received[2], received[5]
     assert low is not None and high is not None
+    # OA-GEN-7: with every receivedTime equal no bound would exclude anything; a post made once
+    # the server's clock has passed the upper bound must be left out, whatever the example did.
+    await _server_time_after(ctx, client, high.ms + 1)
+    await client.post("WB1", ctx.type("Late"), "after the upper bound")
     want = [
         s
         for (s, _), t in reversed(list(zip(_EXAMPLE, received, strict=True)))

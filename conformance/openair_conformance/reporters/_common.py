@@ -34,6 +34,7 @@ from openair_conformance.model import (
 __all__ = [
     "DETAILED",
     "EXCERPT_ENTRIES",
+    "VERDICT_LEGEND",
     "RunRecord",
     "by_section",
     "direction_arrow",
@@ -57,6 +58,13 @@ DETAILED = (
     Verdict.UNEXPECTED_PASS,
     Verdict.INCONCLUSIVE,
     Verdict.PASS_NONSTRICT,
+)
+#: What the verdicts that are not plain pass or fail mean (README, "Verdicts"; spec 1.2).
+VERDICT_LEGEND = (
+    "timing: late past the deadline (max(1 s, 10 x RTT)) but within the fail threshold "
+    "(2 deadlines); later is fail (OA-GEN-6)",
+    "inconclusive: the suite could not decide, or what the case checks never happened "
+    "(a vacuous pass, OA-GEN-7)",
 )
 #: How many trace entries an excerpt shows, up to and including the divergence.
 EXCERPT_ENTRIES = 10

@@ -32,6 +32,7 @@ from openair_conformance.model import (
 from openair_conformance.registry import requirement_sentences
 from openair_conformance.reporters._common import (
     DETAILED,
+    VERDICT_LEGEND,
     RunRecord,
     by_section,
     entry_head,
@@ -240,6 +241,7 @@ class ConsoleReporter:
         problems = [r for r in summary.results if r.verdict in DETAILED]
         if problems:
             lines += ["", self.style.bold(f"Problems ({len(problems)})")]
+            lines += [f"  {text}" for text in VERDICT_LEGEND]
             for result in sorted(problems, key=lambda r: DETAILED.index(r.verdict)):
                 lines += ["", *self._details(result)]
         return [*lines, *self._deaths(summary), "", self.style.bold(self._totals(summary))]
@@ -288,7 +290,8 @@ class ConsoleReporter:
         if not summary.vacuous:
             return []
         results = {r.info.id: r for r in summary.results}
-        lines = [f"vacuous passes ({len(summary.vacuous)}): a pass that proves nothing"]
+        count = len(summary.vacuous)
+        lines = [f"vacuous ({count}): would pass but proves nothing, so inconclusive (OA-GEN-7)"]
         for case_id in summary.vacuous:
             reason = results[case_id].message if case_id in results else ""
             lines.append(f"  {safe_text(case_id)}  {safe_text(reason)}")

@@ -9,8 +9,9 @@ Each sample carries its send time (`bench:ns`); the client reports the write-to-
 (p50, p99), what the server dropped for it, and its own CPU time. The ratio is client / Python
 for the p50 latency and for the CPU time (below 1: better than Python). C++ runs
 `bindings/cpp/build/openair-bench stream`, Java `org.openair.shim.BenchMain stream` from
-`bindings/java/target/openair-shim.jar`, Python this module's `stream` mode. Not part of `make test`; `python -m bench
-bindings` runs it. BENCH_STREAM_SECONDS (default 3) sets each flow's length.
+`bindings/java/target/openair-shim.jar`, Python this module's `stream` mode. Not part of
+`make test`; `python -m bench bindings` runs it. BENCH_STREAM_SECONDS (default 3) sets each
+flow's length.
 """
 
 from __future__ import annotations

@@ -138,8 +138,10 @@ class EncodedCopies:
     latest messages finds the copies encoded when they were posted.
     """
 
-    def __init__(self, size: int = 1024) -> None:
+    def __init__(self, size: int = 1024, max_bytes: int = 16 << 20) -> None:
         self._size = size
+        self._max_bytes = max_bytes  # XML kept at most (issue #19: large posts)
+        self._bytes = 0
         self._xml: dict[int, tuple[Message, str]] = {}
 
     def xml(self, msg: Message) -> str:
@@ -148,9 +150,15 @@ class EncodedCopies:
         if hit is not None and hit[0] is msg:
             return hit[1]
         text = stored_xml(msg)
-        if len(self._xml) >= self._size:
-            del self._xml[next(iter(self._xml))]  # the oldest entry
+        # A copy is kept alive by the cache too: count it with its XML.
+        cost = 2 * len(text)
+        if cost > self._max_bytes:
+            return text  # never cached: it would push everything else out
+        while self._xml and (len(self._xml) >= self._size or self._bytes + cost > self._max_bytes):
+            oldest = next(iter(self._xml))
+            self._bytes -= 2 * len(self._xml.pop(oldest)[1])  # the oldest entry
         self._xml[id(msg)] = (msg, text)  # the reference keeps id(msg) from being reused
+        self._bytes += cost
         return text
 
 

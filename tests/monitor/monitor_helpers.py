@@ -155,7 +155,7 @@ class SseReader:
     @classmethod
     async def open(cls, port: int, query: str) -> SseReader:
         client = await HttpClient.open(port)
-        client.write(f"GET /api/events?{query} HTTP/1.1\r\nHost: x\r\n\r\n".encode())
+        client.write(f"GET /api/events?{query} HTTP/1.1\r\nHost: localhost\r\n\r\n".encode())
         raw = await asyncio.wait_for(client.reader.readuntil(b"\r\n\r\n"), BOUND)
         lines = raw.decode("latin-1").split("\r\n")
         headers = {

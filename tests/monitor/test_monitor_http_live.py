@@ -49,8 +49,8 @@ def test_pipelined_requests_are_answered_in_order() -> None:
     async def go() -> None:
         async with serving() as (server, _):
             client = await HttpClient.open(server.port)
-            one = b"GET /api/whiteboards HTTP/1.1\r\nHost: x\r\n\r\n"
-            two = b"GET /nope HTTP/1.1\r\nHost: x\r\n\r\n"
+            one = b"GET /api/whiteboards HTTP/1.1\r\nHost: localhost\r\n\r\n"
+            two = b"GET /nope HTTP/1.1\r\nHost: localhost\r\n\r\n"
             client.write(one + two + one)
             statuses = [(await client.response()).status for _ in range(3)]
             assert statuses == [200, 404, 200]
@@ -93,7 +93,7 @@ def test_a_slowloris_request_is_cut_off_at_its_deadline() -> None:
         options = MonitorOptions(limits=HttpLimits(head_deadline_s=0.2))
         async with serving(monitor=options) as (server, _):
             client = await HttpClient.open(server.port)
-            client.write(b"GET / HTTP/1.1\r\nHost: x\r\n")  # and never the empty line
+            client.write(b"GET / HTTP/1.1\r\nHost: localhost\r\n")  # and never the empty line
             reply = await client.response()
             assert reply.status == 408
             assert await client.closed()
@@ -156,7 +156,7 @@ def test_without_the_monitor_the_main_port_answers_no_http() -> None:
             await mon.close()
             server.monitor = None  # as `openair serve --no-monitor` leaves it
             reader, writer = await asyncio.open_connection("127.0.0.1", server.port)
-            writer.write(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n")
+            writer.write(b"GET / HTTP/1.1\r\nHost: localhost\r\n\r\n")
             data = await asyncio.wait_for(reader.read(), BOUND)  # until the server closes
             assert not data.startswith(b"HTTP/")  # an unknown frame tag, not a page
             writer.close()

@@ -129,8 +129,10 @@ def _retrieve_patch(
     """Run every retrieve unlimited with a changed spec, change the result, then apply latest."""
 
     def make(original: Fn) -> Fn:
-        def retrieve_(self: Whiteboard, spec: RetrieveSpec, *, now_ns: int) -> list[Message]:
-            found = original(self, replace(spec_change(spec), latest=0), now_ns=now_ns)
+        def retrieve_(
+            self: Whiteboard, spec: RetrieveSpec, *, now_ns: int, **bounds: Any
+        ) -> list[Message]:
+            found = original(self, replace(spec_change(spec), latest=0), now_ns=now_ns, **bounds)
             found = result_change(spec, found, now_ns)
             return found[: spec.latest] if spec.latest else found
 

@@ -16,7 +16,16 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from openair.monitor import api, views
-from openair.monitor.http import EventStream, HttpConnection, HttpLimits, Request, Response
+from openair.monitor.hostcheck import allowed_names, host_allowed, origin_allowed
+from openair.monitor.http import (
+    EventStream,
+    HttpConnection,
+    HttpError,
+    HttpLimits,
+    Request,
+    Response,
+    error_response,
+)
 from openair.monitor.sse import Broadcaster
 from openair.monitor.tap import RateMeter, Tap
 
@@ -34,6 +43,7 @@ class MonitorOptions:
 
     limits: HttpLimits = field(default_factory=HttpLimits)
     ring: int = 512  # recent posts kept with their wakeups (a longer ring costs routing cache)
+    ring_bytes: int = 32 << 20  # and no more bytes of them than this (issue #19)
     sample_s: float = 1.0  # counter samples for rates
     rate_window_s: float = 5.0
     window_s: float = 10.0  # the type graph's window
@@ -65,7 +75,10 @@ class Monitor:
         self.limits = self.options.limits
         self.post_enabled = post
         self.post_hosts = frozenset(hosts)
-        self.tap = Tap(self.options.ring)
+        # DNS rebinding (issue #19): names in Host/Origin that the monitor answers.
+        self.host_names = allowed_names(server.options.host, hosts)
+        self._per_peer: dict[str, int] = {}
+        self.tap = Tap(self.options.ring, self.options.ring_bytes)
         self.rates = RateMeter(self.options.rate_window_s)
         self.broadcaster = Broadcaster(self)
         self.latency_hooked = False
@@ -125,17 +138,35 @@ class Monitor:
     # -- HttpApp ----------------------------------------------------------------------------
 
     def respond(self, request: Request, peer: str) -> Response | EventStream:
-        """Answer one HTTP request (pages, static files, the JSON API)."""
+        """Answer one HTTP request (pages, static files, the JSON API).
+
+        A request whose Host or Origin names a host the monitor does not answer is refused
+        (403): a browser sent it for a page of another site (DNS rebinding).
+        """
+        names = self.host_names
+        if not host_allowed(request.header("host"), names):
+            return error_response(HttpError(403, "Host not allowed"), close=True)
+        if not origin_allowed(request.header("origin"), names):
+            return error_response(HttpError(403, "Origin not allowed"), close=True)
         return api.respond(self, request, peer)
 
     def opened(self, conn: HttpConnection) -> bool:
+        held = self._per_peer.get(conn.peer, 0)
         if self._closed or len(self._conns) >= self.limits.max_connections:
             return False
+        if held >= self.limits.max_per_peer:
+            return False  # one peer cannot take every connection (issue #19)
         self._conns.add(conn)
+        self._per_peer[conn.peer] = held + 1
         return True
 
     def closed(self, conn: HttpConnection) -> None:
+        if conn not in self._conns:
+            return  # refused in `opened`: never counted
         self._conns.discard(conn)
+        held = self._per_peer.pop(conn.peer, 1) - 1
+        if held > 0:
+            self._per_peer[conn.peer] = held
 
     # -- what the views read ----------------------------------------------------------------
 

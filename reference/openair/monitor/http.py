@@ -67,6 +67,7 @@ class HttpLimits:
     head_deadline_s: float = 10.0  # a request must be complete this long after its first byte
     idle_s: float = 30.0  # a keep-alive connection with no request in progress is closed
     max_connections: int = 128
+    max_per_peer: int = 16  # connections from one address: half-sent requests cannot fill all
     max_streams: int = 32  # open event streams (SSE clients)
 
     def __post_init__(self) -> None:

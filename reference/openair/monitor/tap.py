@@ -5,8 +5,10 @@ does O(1) work and never raises: it appends (stored copy, deliveries) to a bound
 the post and remembers the type each sender posted last. Everything else (JSON, filters, rates,
 the graph) is computed later from the ring, and only when someone looks.
 
-Events are numbered from 0 in arrival order (`seq`); the ring keeps the newest `capacity`, so
-event `seq` is still there while `seq >= count - len(ring)`.
+Events are numbered from 0 in arrival order (`seq`); the ring keeps the newest `capacity`, and
+no more than `max_bytes` of messages and wakeup frames (issue #19: large posts must not make the
+monitor hold hundreds of them; the newest event is always kept), so event `seq` is still there
+while `seq >= count - len(ring)`.
 
 `Tap.delivered` takes a completed delivery (module, queue item) when the dispatcher reports
 them; it records the post → wakeup latency of the module in a fixed-bucket histogram.
@@ -21,7 +23,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from openair.message import Message
-from openair.server.queues import QueueItem
+from openair.server.queues import QueueItem, item_bytes
 from openair.server.router import Delivery
 
 __all__ = ["LATENCY_BOUNDS_US", "Event", "Histogram", "RateMeter", "Tap"]
@@ -75,8 +77,11 @@ def _ms(us: int) -> str:
 class Tap:
     """The router's observer and the dispatcher's delivery hook."""
 
-    def __init__(self, capacity: int = 512) -> None:
+    def __init__(self, capacity: int = 512, max_bytes: int = 32 << 20) -> None:
         self.ring: deque[Event] = deque(maxlen=capacity)
+        self.max_bytes = max_bytes
+        self.bytes = 0  # what the ring's events hold
+        self._sizes: deque[int] = deque()
         self.count = 0  # events observed since start; the next event's seq
         self.errors = 0
         self.last_type: dict[str, str] = {}  # sender -> the type it posted last
@@ -85,7 +90,17 @@ class Tap:
     def observe(self, whiteboard: str, stored: Message, deliveries: tuple[Delivery, ...]) -> None:
         """Record one stored post (the router's observer: O(1), never raises)."""
         try:
+            size = item_bytes(stored, None)
+            for delivery in deliveries:
+                size += item_bytes(delivery.message, delivery.wire)
+            if len(self.ring) == self.ring.maxlen:
+                self.bytes -= self._sizes.popleft()  # the append below drops the oldest
             self.ring.append((stored, deliveries))
+            self._sizes.append(size)
+            self.bytes += size
+            while self.bytes > self.max_bytes and len(self.ring) > 1:
+                self.ring.popleft()
+                self.bytes -= self._sizes.popleft()
             self.count += 1
             senders = self.last_type
             if len(senders) >= _MAX_SENDERS:

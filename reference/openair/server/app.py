@@ -18,14 +18,17 @@ import asyncio
 import contextlib
 import logging
 import socket
+import ssl
 import time
-from collections.abc import Coroutine
+from collections.abc import Coroutine, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import openair
 from openair.framing import FrameTag
 from openair.message import Message
+from openair.server.auth import AuthGate
+from openair.server.budgets import Budget, quiet_accept_errors
 from openair.server.commands import declared_extensions
 from openair.server.config import (
     ConfigError,
@@ -96,6 +99,9 @@ class ServerOptions:
     http_port: int | None = None
     monitor_post: bool = False
     monitor_hosts: tuple[str, ...] = ("127.0.0.1", "::1")
+    # Secure mode (spec 14.3, extension `auth`): the module secrets; None is legacy mode.
+    auth_secrets: Mapping[str, str] | None = field(default=None, repr=False)  # never logged
+    tls: ssl.SSLContext | None = None  # TLS on the main port (OA-AUTH-10)
 
 
 def free_port(requested: int) -> int:
@@ -126,6 +132,8 @@ class Server:
         self.limits = options.limits
         self.flow = options.flow
         wanted = options.extensions | {"monitor"} if options.monitor else options.extensions
+        if options.auth_secrets is not None:  # OA-AUTH-1, OA-AUTH-11: `auth`, no monitor
+            wanted = (wanted - {"monitor"}) | {"auth"}
         self.extensions = _extensions(wanted, store)  # OA-EXT-1: `monitor` with the web monitor
         self.router: Router
         self.internal: InternalModules | None = None  # the modules run inside (OA-CONF-8)
@@ -141,8 +149,11 @@ class Server:
             self,
             capacity=options.limits.max_queue,
             max_in_flight=options.limits.max_in_flight,
-            options=options.delivery,
+            options=_delivery_options(options),
+            max_queue_bytes=options.limits.max_queue_bytes,  # OA-LIM-8
+            push_buffer_bytes=options.limits.stream_push_buffer_bytes,  # OA-LIM-16
         )
+        self.budget = Budget(options.limits)  # OA-LIM-11, OA-LIM-12
         self.delivered_total = 0
         self.dropped_total: dict[str, int] = {
             "QUEUE_OVERFLOW": 0,
@@ -154,11 +165,15 @@ class Server:
         self._pushers: dict[int, Pusher] = {}  # push connections by id (11.6)
         self._wait_timers: dict[int, tuple[int, asyncio.TimerHandle]] = {}  # ticket -> conn, timer
         self._ticker: asyncio.TimerHandle | None = None
+        self._sweeper: asyncio.TimerHandle | None = None  # OA-LIM-15
 
     # -- ConnectionHost -------------------------------------------------------------------------
 
     def connection_opened(self, conn: ServerConnection) -> int:
         self._next_id += 1
+        if not self.budget.admit(conn.peer[0], time.monotonic()):  # OA-LIM-11
+            conn.abort()  # never registered: it ends before a byte of it is read
+            return self._next_id
         self._conns[self._next_id] = conn
         self.router.connection_opened(self._next_id, address=conn.peer[0])
         log.info("event=connect conn=%d peer=%s:%d", self._next_id, *conn.peer)
@@ -186,7 +201,11 @@ class Server:
         declared = declared_extensions(msg) or frozenset()
         window = self.limits.max_in_flight if "pipelining" in declared else 1
         self._pushers[conn.conn_id] = Pusher(
-            conn, stream=stream, capacity=self.limits.stream_push_buffer, window=window
+            conn,
+            stream=stream,
+            capacity=self.limits.stream_push_buffer,
+            window=window,
+            max_bytes=self.limits.stream_push_buffer_bytes,  # OA-LIM-16
         )
         log.info("event=push_subscribe conn=%d stream=%s window=%d", conn.conn_id, stream, window)
 
@@ -217,7 +236,8 @@ class Server:
         monitor = self.monitor
         if monitor is None or conn.transport is None:
             return False
-        self._conns.pop(conn.conn_id, None)
+        if self._conns.pop(conn.conn_id, None) is not None:
+            self.budget.release(conn.peer[0])  # the monitor counts its own (OA-LIM-11)
         self.router.connection_closed(conn.conn_id, now_ns=time.time_ns())  # nothing bound yet
         monitor.adopt(conn.transport, data)
         return True
@@ -227,7 +247,9 @@ class Server:
         self.dispatcher.poke(module)
 
     def connection_lost(self, conn: ServerConnection) -> None:
-        self._conns.pop(conn.conn_id, None)
+        if self._conns.pop(conn.conn_id, None) is None:
+            return  # refused by the budget (OA-LIM-11) or handed to the monitor: never served
+        self.budget.release(conn.peer[0])
         self._pushers.pop(conn.conn_id, None)
         if conn.waiting is not None:
             timer = self._wait_timers.pop(conn.waiting, None)
@@ -314,6 +336,15 @@ class Server:
         self._apply(self.router.tick(time.time_ns()), 0)
         self._ticker = asyncio.get_running_loop().call_later(_TICK_S, self._tick)
 
+    def _sweep(self) -> None:
+        """Forget modules gone longer than module-retention-ms (OA-LIM-15); look again later."""
+        retention_ms = self.limits.module_retention_ms
+        forgotten = self.router.forget_gone(time.time_ns(), retention_ms * 1_000_000)
+        if forgotten:
+            log.info("event=forgotten modules=%d", forgotten)
+        delay = max(0.05, min(retention_ms / 4000, 60.0))  # a name goes at most 25 % late
+        self._sweeper = asyncio.get_running_loop().call_later(delay, self._sweep)
+
     def _spawn(self, coro: Coroutine[object, object, int]) -> None:
         task = asyncio.get_running_loop().create_task(coro)
         self._tasks.add(task)
@@ -365,8 +396,10 @@ class Server:
             start_serving=False,
             backlog=self.options.backlog,
             reuse_address=True,
+            ssl=self.options.tls,  # OA-AUTH-10
         )
         self.port = int(self._listener.sockets[0].getsockname()[1])
+        quiet_accept_errors(loop, time.monotonic)  # EMFILE: one line per interval, no traceback
         address = "127.0.0.1" if self.host in _WILDCARD_HOSTS else self.host
         self.router = Router(
             self.config,
@@ -377,13 +410,16 @@ class Server:
             limits=self.limits,
             extensions=self.extensions,
             port_allocator=free_port,
+            auth=_auth_gate(self.options.auth_secrets),  # 14.3; None in legacy mode
         )
         self.router.status_extra = self._status_counters
+        self.router.queued_bytes = self.dispatcher.queued_bytes  # OA-LIM-14
         self._apply(self.router.start(time.time_ns()), 0)  # OA-SESS-31: System.Ready
         self.internal = start_internal(self)  # OA-CONF-8; ConfigError refuses the start
         if "typed-streams" in self.extensions:
             self._ticker = asyncio.get_running_loop().call_later(_TICK_S, self._tick)
-        if self.options.monitor:
+        self._sweep()
+        if self.options.monitor and "monitor" in self.extensions:  # OA-AUTH-11
             from openair.monitor import attach  # the monitor is optional: import it lazily
 
             self.monitor = await attach(self)
@@ -408,6 +444,7 @@ class Server:
         counters["connections"] = len(self._conns)
         counters["delivered"] = self.delivered_total
         counters["dropped"] = dict(self.dropped_total)
+        counters["budget"] = self.budget.counters()  # OA-LIM-11, OA-LIM-12
         return counters
 
     def _status_counters(self) -> dict[str, object]:
@@ -417,6 +454,7 @@ class Server:
             "connections": len(self._conns),
             "delivered": self.delivered_total,
             "dropped": dict(self.dropped_total),
+            "budget": self.budget.counters(),  # OA-LIM-11, OA-LIM-12
         }
 
     async def serve_forever(self) -> None:
@@ -431,6 +469,8 @@ class Server:
         self._stopping = True
         if self._ticker is not None:
             self._ticker.cancel()
+        if self._sweeper is not None:
+            self._sweeper.cancel()
         for _, timer in self._wait_timers.values():
             timer.cancel()
         log.info("event=shutdown phase=begin pending=%d", self.dispatcher.pending)
@@ -484,6 +524,22 @@ async def _bounded(stage: str, coro: Coroutine[object, object, None], limit: flo
         log.warning("event=shutdown phase=%s_timeout", stage)
     except Exception as exc:  # a failing stage must not stop the rest of the shutdown
         log.warning("event=shutdown phase=%s_error detail=%r", stage, str(exc))
+
+
+def _delivery_options(options: ServerOptions) -> DeliveryOptions:
+    """The delivery timing, with the retry limits the server advertises (OA-DELIV-15)."""
+    limits = options.limits
+    most = limits.retry_deadline_ms / 1000
+    return replace(
+        options.delivery,
+        retries=limits.delivery_retries,
+        backoff_s=tuple(min(b, most) for b in options.delivery.backoff_s),
+    )
+
+
+def _auth_gate(secrets: Mapping[str, str] | None) -> AuthGate | None:
+    """Return the secure-mode gate for `secrets`, or None in legacy mode (OA-AUTH-1)."""
+    return AuthGate(secrets) if secrets is not None else None
 
 
 def _extensions(wanted: frozenset[str], store: HistoryStore) -> frozenset[str]:

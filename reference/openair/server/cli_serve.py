@@ -8,12 +8,17 @@ import gc
 import logging
 import os
 import signal
+import ssl
 import sys
 import threading
+from typing import Any
 
 import click
 
+from openair.auth import SecretsError, load_secrets
 from openair.server.app import Server, ServerOptions, start_server
+from openair.server.budgets import return_large_buffers
+from openair.server.cli_budgets import budget_options
 from openair.server.config import ConfigError, ServerLimits
 from openair.server.store import StoreSpecError
 
@@ -44,6 +49,7 @@ def _tune_gc() -> None:
     """
     gc.freeze()
     gc.set_threshold(_GC_GEN0, *gc.get_threshold()[1:])
+    return_large_buffers()  # RSS falls again after a burst of large posts (issue #19)
 
 
 class _Stopper:
@@ -102,6 +108,31 @@ async def _run(options: ServerOptions) -> None:
     # Stopped: a late signal (a supervisor repeating SIGTERM) has nothing left to force.
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, signal.SIG_IGN)
+
+
+def _secure(
+    auth_path: str | None, cert: str | None, key: str | None, *, monitor_options: bool
+) -> dict[str, Any]:
+    """Return the ServerOptions of secure mode and TLS (spec 14.3); exit 2 on a bad file."""
+    if (cert is None) != (key is None):
+        raise click.UsageError("--tls-cert and --tls-key go together")
+    if auth_path is not None and monitor_options:
+        raise click.UsageError("--auth turns the web monitor off (OA-AUTH-11)")
+    found: dict[str, Any] = {}
+    try:
+        if auth_path is not None:
+            found["auth_secrets"] = load_secrets(auth_path)
+        if cert is not None and key is not None:
+            context = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
+            context.minimum_version = ssl.TLSVersion.TLSv1_2  # OA-AUTH-10
+            context.load_cert_chain(cert, key)
+            found["tls"] = context
+    except (SecretsError, OSError, ssl.SSLError) as exc:
+        click.echo(f"openair serve: {exc}", err=True)
+        sys.exit(2)
+    if auth_path is not None and cert is None:
+        log.warning("event=insecure detail=secure mode without TLS (OA-AUTH-10)")
+    return found
 
 
 def _monitor_line(server: Server) -> str:
@@ -167,6 +198,16 @@ def _monitor_line(server: Server) -> str:
     help="Serve no HTTP at all: the main port speaks OpenAIR only.",
 )
 @click.option(
+    "--auth",
+    "auth_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Secure mode (extension auth, spec 14.3): the module secrets file "
+    "(<secrets><module name secret/></secrets>). Turns the web monitor off.",
+)
+@click.option("--tls-cert", type=click.Path(dir_okay=False), help="TLS certificate (PEM).")
+@click.option("--tls-key", type=click.Path(dir_okay=False), help="TLS private key (PEM).")
+@click.option(
     "--stream-push-buffer",
     default=ServerLimits().stream_push_buffer,
     show_default=True,
@@ -180,6 +221,35 @@ def _monitor_line(server: Server) -> str:
     type=click.IntRange(1, 24 * 3600 * 1000),
     help="The longest a WAIT_FOR_* may wait; longer timeouts are clipped (OA-STREAM-7).",
 )
+@click.option(
+    "--max-queue",
+    default=ServerLimits().max_queue,
+    show_default=True,
+    type=click.IntRange(1, 100_000_000),
+    help="Deliveries queued per module before the oldest lowest-priority ones drop (OA-DELIV-8).",
+)
+@click.option(
+    "--max-in-flight",
+    default=ServerLimits().max_in_flight,
+    show_default=True,
+    type=click.IntRange(1, 1_000_000),
+    help="Requests in flight per connection, and deliveries per pipelining module (OA-LIM-5).",
+)
+@click.option(
+    "--delivery-retries",
+    default=ServerLimits().delivery_retries,
+    show_default=True,
+    type=click.IntRange(1, 100),
+    help="Retries of a failed delivery before it is abandoned (OA-DELIV-7, OA-DELIV-15).",
+)
+@click.option(
+    "--retry-deadline-ms",
+    default=ServerLimits().retry_deadline_ms,
+    show_default=True,
+    type=click.IntRange(1, 3_600_000),
+    help="The longest wait between a failed delivery and its retry (OA-DELIV-15).",
+)
+@budget_options  # --max-queue-bytes … --frame-total-deadline-ms (OA-LIM-8 to OA-LIM-13)
 def serve(
     host: str,
     port: int | None,
@@ -190,8 +260,16 @@ def serve(
     monitor_post: bool,
     monitor_hosts: tuple[str, ...],
     no_monitor: bool,
+    auth_path: str | None,
+    tls_cert: str | None,
+    tls_key: str | None,
     stream_push_buffer: int,
     max_wait_ms: int,
+    max_queue: int,
+    max_in_flight: int,
+    delivery_retries: int,
+    retry_deadline_ms: int,
+    budgets: dict[str, int],
 ) -> None:
     """Run the OpenAIR reference server until SIGINT or SIGTERM.
 
@@ -225,7 +303,16 @@ def serve(
         http_port=http_port,
         monitor_post=monitor_post,
         monitor_hosts=_hosts(monitor_hosts),
-        limits=ServerLimits(stream_push_buffer=stream_push_buffer, max_wait_ms=max_wait_ms),
+        **_secure(auth_path, tls_cert, tls_key, monitor_options=bool(http_port or monitor_post)),
+        limits=ServerLimits(
+            stream_push_buffer=stream_push_buffer,
+            max_wait_ms=max_wait_ms,
+            max_queue=max_queue,
+            max_in_flight=max_in_flight,
+            delivery_retries=delivery_retries,
+            retry_deadline_ms=retry_deadline_ms,
+            **budgets,
+        ),
     )
     try:
         asyncio.run(_run(options))

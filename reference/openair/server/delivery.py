@@ -113,7 +113,9 @@ class ModuleDelivery:
     def __init__(self, name: str, dispatcher: Dispatcher) -> None:
         self.name = name
         self._d = dispatcher
-        self.queue = DeliveryQueue(capacity=dispatcher.capacity)
+        self.queue = DeliveryQueue(
+            capacity=dispatcher.capacity, max_bytes=dispatcher.max_queue_bytes
+        )
         self.counters = ModuleCounters()
         self._retry: list[_Attempt] = []
         # Deliveries awaiting their acknowledgement, and retries sleeping their back-off: each
@@ -140,9 +142,9 @@ class ModuleDelivery:
         buffered = sum(len(b) for b in self.samples.values()) if self.samples else 0
         return len(self.queue) + buffered + len(self._retry) + len(self._in_flight) + self._sending
 
-    def push(self, delivery: Delivery) -> QueueItem | None:
-        """Queue one delivery; return the item dropped for room, if any (OA-DELIV-9)."""
-        victim = self.queue.push(
+    def push(self, delivery: Delivery) -> list[QueueItem]:
+        """Queue one delivery; return the items dropped for room (OA-DELIV-9, OA-LIM-8)."""
+        victims = self.queue.push_all(
             delivery.message,
             priority=delivery.priority,
             wb_priority=delivery.wb_priority,
@@ -151,7 +153,7 @@ class ModuleDelivery:
             expires_ns=delivery.expires_ns,
         )
         self._wake.set()
-        return victim
+        return victims
 
     def poke(self) -> None:
         """Look again for a path (the module bound or opened a callback connection)."""
@@ -161,7 +163,7 @@ class ModuleDelivery:
         """Buffer a sample of a subscribed stream; return how many were dropped for room."""
         buffer = self.samples.get(stream)
         if buffer is None:
-            buffer = self.samples[stream] = SampleBuffer(capacity)
+            buffer = self.samples[stream] = SampleBuffer(capacity, self._d.push_buffer_bytes)
         dropped = buffer.offer(sample)
         self._wake.set()
         return dropped
@@ -517,9 +519,13 @@ class Dispatcher:
         capacity: int,
         max_in_flight: int,
         options: DeliveryOptions | None = None,
+        max_queue_bytes: int = 0,
+        push_buffer_bytes: int = 0,
     ) -> None:
         self.host = host
         self.capacity = capacity
+        self.max_queue_bytes = max_queue_bytes  # OA-LIM-8: 0 = no byte bound
+        self.push_buffer_bytes = push_buffer_bytes  # OA-LIM-16: per subscribed stream
         self.max_in_flight = max_in_flight
         self.options = options or DeliveryOptions()
         self.modules: dict[str, ModuleDelivery] = {}
@@ -534,16 +540,17 @@ class Dispatcher:
         md = self.modules.get(delivery.module)
         if md is None:
             md = self.modules[delivery.module] = ModuleDelivery(delivery.module, self)
-        victim = md.push(delivery)
-        if victim is not None:
-            self.host.dropped(delivery.module, 1, "QUEUE_OVERFLOW")
+        victims = md.push(delivery)
+        if victims:
+            self.host.dropped(delivery.module, len(victims), "QUEUE_OVERFLOW")
             dropped = md.queue.counters.dropped
-            if dropped == 1 or dropped % 1000 == 0:
+            if dropped == len(victims) or dropped // 1000 != (dropped - len(victims)) // 1000:
                 log.warning(
-                    "event=overflow_drop module=%s dropped_total=%d priority=%g",
+                    "event=overflow_drop module=%s dropped_total=%d priority=%g queue_bytes=%d",
                     delivery.module,
                     dropped,
-                    victim.priority,
+                    victims[-1].priority,
+                    md.queue.held_bytes,
                 )
 
     def push_sample(self, module: str, stream: str, sample: StoredSample, capacity: int) -> None:
@@ -608,6 +615,10 @@ class Dispatcher:
         self.modules.clear()
         return left
 
+    def queued_bytes(self) -> int:
+        """The bytes every module's queue holds together (OA-LIM-14)."""
+        return sum(md.queue.held_bytes for md in self.modules.values())
+
     def counters(self) -> dict[str, dict[str, int]]:
         """Per module: queue depth, items in, delivered, dropped, failed, refused, retried."""
         return {
@@ -621,6 +632,8 @@ class Dispatcher:
                 "retried": md.counters.retried,
                 "expired": md.counters.expired,
                 "discarded": md.queue.counters.discarded,
+                "bytes": md.queue.held_bytes,  # OA-LIM-8
+                "dropped_bytes": md.queue.counters.dropped_bytes,
             }
             for name, md in self.modules.items()
         }

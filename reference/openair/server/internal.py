@@ -172,14 +172,14 @@ class InternalDelivery(ModuleDelivery):
         )
         super().__init__(module.name, dispatcher)  # starts self._run() below
 
-    def push(self, delivery: Delivery) -> QueueItem | None:
+    def push(self, delivery: Delivery) -> list[QueueItem]:
         """Queue a delivery and keep its stored trigger message for `InternalModule.trigger`."""
         if delivery.trigger is not None:
             self.module._stored[delivery.message.id] = delivery.trigger
-        victim = super().push(delivery)
-        if victim is not None:
+        victims = super().push(delivery)
+        for victim in victims:
             self.module._stored.pop(victim.message.id, None)  # OA-DELIV-9: dropped
-        return victim
+        return victims
 
     def _window(self) -> int:
         """Deliveries it may take per turn: nothing is in flight, the handler runs them in turn."""

@@ -43,6 +43,7 @@ from openair.errors import (
 )
 from openair.framing import Frame, FrameReader, FrameTag, encode_frame, encode_frame_parts
 from openair.message import Message
+from openair.server.budgets import Budget
 from openair.server.config import ServerLimits
 from openair.server.router import Outcome
 from openair.times import AirTime
@@ -59,6 +60,9 @@ _ANSWERS = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
 #: OA-EXT-3 requires GET/HEAD/POST and allows the others).
 #: Chunks of at least this many bytes are written as parts of their own, never joined (11.2).
 _SEPARATE_CHUNKS = 64 * 1024
+#: Requests with at least this much XML are decoded on a worker thread, and the connection waits
+#: for them: one client's 16 MiB post must not hold every other client for its parse (issue #19).
+OFF_LOOP_XML = 1 << 20
 _HTTP_METHODS = (b"GET ", b"HEAD ", b"POST ", b"PUT ", b"OPTIONS ", b"DELETE ")
 
 
@@ -171,6 +175,13 @@ class ServerConnection(asyncio.Protocol):
         # A WAIT_FOR_* in progress (OA-STREAM-7): later requests wait behind it (OA-SESS-2).
         self.waiting: int | None = None
         self._wait_paused = False
+        # The server's shared budget (OA-LIM-11/12); hosts built for tests may have none.
+        self._budget: Budget | None = getattr(host, "budget", None)
+        self._partial = 0  # unfinished-frame bytes counted in the budget (OA-LIM-12)
+        self._frame_began = 0.0  # monotonic time of the current frame's first byte
+        self._frame_no = -1  # frames_in when that frame began (-1: no frame begun)
+        self._decoding = 0  # XML bytes of a request being decoded off the loop (0: none)
+        self._eof = False  # the peer closed its side while a request was being decoded
 
     # -- transport callbacks ------------------------------------------------------------------
 
@@ -206,6 +217,7 @@ class ServerConnection(asyncio.Protocol):
             while (
                 not self._closing
                 and self.waiting is None
+                and not self._decoding
                 and (frame := self._reader.next_frame()) is not None
             ):
                 self.frames_in += 1
@@ -213,10 +225,34 @@ class ServerConnection(asyncio.Protocol):
         except RemoteProtocolError as exc:
             self._framing_error(exc)
             return
-        if self.waiting is not None and not self._wait_paused and self.transport is not None:
+        held = self.waiting is not None or self._decoding
+        if held and not self._wait_paused and self.transport is not None:
             self._wait_paused = True  # buffer no more than the frames already read
             self.transport.pause_reading()
+        self._hold_partial()
         self._arm_deadline()
+
+    def _hold_partial(self) -> bool:
+        """Count the bytes still buffered after processing in the server's budget (OA-LIM-12).
+
+        Counted after the complete frames are taken, so one read (at most the transport's read
+        size) may pass the budget before it is checked. Growth past the budget is
+        LIMIT_EXCEEDED and closes this connection; False then.
+        """
+        budget = self._budget
+        if budget is None or self._closing:
+            return not self._closing
+        held = self._reader.buffered + self._decoding  # a frame in decoding is still held
+        if budget.hold_partial(held - self._partial):
+            self._partial = held
+            return True
+        self._framing_error(
+            LimitExceededError(
+                f"unfinished frames of all connections passed max-partial-bytes"
+                f" ({self.host.limits.max_partial_bytes} bytes)"
+            )
+        )
+        return False
 
     def finish_wait(self, ticket: int, reply: Message) -> None:
         """Send the deferred reply of a WAIT_FOR_* and take requests again (OA-STREAM-7)."""
@@ -245,10 +281,16 @@ class ServerConnection(asyncio.Protocol):
     def eof_received(self) -> bool | None:
         if not self._closing and self._reader.in_frame:
             self._log_error(FrameTruncatedError("the peer closed inside a frame"))  # OA-FRAME-8
+        if self._decoding and not self._closing:
+            self._eof = True  # answer the request being decoded, then close
+            return True
         return None  # close the transport
 
     def connection_lost(self, exc: Exception | None) -> None:
         self._closing = True
+        if self._budget is not None and self._partial:
+            self._budget.hold_partial(-self._partial)  # OA-LIM-12: released with the connection
+            self._partial = 0
         for handle in (self._deadline, self._keepalive):
             if handle is not None:
                 handle.cancel()
@@ -294,14 +336,55 @@ class ServerConnection(asyncio.Protocol):
             if outcome.close_this:
                 self.close()
             return
+        if len(frame.xml) >= OFF_LOOP_XML:
+            self._decode_off_loop(frame, received_ns)
+            return
         try:
             msg = from_frame(frame, self._xml_limits)
         except RemoteProtocolError as exc:
-            self._log_error(exc)
-            ident, sender = _salvage(frame.xml, self._xml_limits)
-            reply = self._error_reply("RECEIVE_ERROR", exc.wire_text(), ident, sender)
-            self._send(reply)  # OA-ERR-3: the connection stays usable
+            self._undecodable(frame, exc)
             return
+        self._route(frame, msg, received_ns)
+
+    def _undecodable(self, frame: Frame, exc: RemoteProtocolError) -> None:
+        self._log_error(exc)
+        ident, sender = _salvage(frame.xml, self._xml_limits)
+        reply = self._error_reply("RECEIVE_ERROR", exc.wire_text(), ident, sender)
+        self._send(reply)  # OA-ERR-3: the connection stays usable
+
+    def _decode_off_loop(self, frame: Frame, received_ns: int) -> None:
+        """Decode a large request on a worker thread; later frames wait for it (OA-SESS-2)."""
+        self._decoding = max(len(frame.xml), 1)
+        loop = asyncio.get_running_loop()
+        future = loop.run_in_executor(None, from_frame, frame, self._xml_limits)
+        future.add_done_callback(lambda done: self._decoded(done, frame, received_ns))
+
+    def _decoded(self, done: asyncio.Future[Message], frame: Frame, received_ns: int) -> None:
+        """Route a request decoded off the loop, then take the frames behind it again."""
+        self._decoding = 0
+        if self._closing:
+            return
+        exc = done.exception()
+        if isinstance(exc, RemoteProtocolError):
+            self._undecodable(frame, exc)
+        elif exc is not None:
+            log.warning("event=decode_failed conn=%d detail=%r", self.conn_id, str(exc))
+            self.abort()
+            return
+        else:
+            self._route(frame, done.result(), received_ns)
+        if self._eof:
+            self._process(time.time_ns())  # what the peer sent before its end, then close
+            self.close()
+            return
+        if self.waiting is None and self._wait_paused and self.transport is not None:
+            self._wait_paused = False
+            if not self._reading_paused:
+                self.transport.resume_reading()
+        self._process(time.time_ns())
+
+    def _route(self, frame: Frame, msg: Message, received_ns: int) -> None:
+        """Hand a decoded request to the router and act on its outcome (OA-SESS-2)."""
         if self._in_flight() >= self.host.limits.max_in_flight:
             exc2 = LimitExceededError(f"more than {self.host.limits.max_in_flight} in flight")
             self._send(self._error_reply("RECEIVE_ERROR", exc2.wire_text(), msg.id, msg.sender))
@@ -515,21 +598,38 @@ class ServerConnection(asyncio.Protocol):
     # -- timers ---------------------------------------------------------------------------------
 
     def _arm_deadline(self) -> None:
-        """Watch for a frame that stops arriving (OA-FRAME-12)."""
-        if self._deadline is None and self._reader.in_frame and not self._closing:
-            delay = self.host.limits.frame_deadline_ms / 1000
+        """Watch for a frame that stops arriving (OA-FRAME-12) or takes too long (OA-LIM-13)."""
+        if not self._reader.in_frame or self._closing:
+            return
+        if self._frame_no != self.frames_in:  # a new frame began with the bytes just read
+            self._frame_no = self.frames_in
+            self._frame_began = self._last_byte
+        if self._deadline is None:
+            delay = self._deadline_left(time.monotonic())
             self._deadline = asyncio.get_running_loop().call_later(delay, self._check_deadline)
+
+    def _deadline_left(self, now: float) -> float:
+        """Seconds until the gap (OA-FRAME-12) or whole-frame (OA-LIM-13) deadline passes."""
+        limits = self.host.limits
+        gap = self._last_byte + limits.frame_deadline_ms / 1000
+        whole = self._frame_began + limits.frame_total_deadline_ms / 1000
+        return min(gap, whole) - now
 
     def _check_deadline(self) -> None:
         self._deadline = None
         if self._closing or not self._reader.in_frame:
             return
-        limit = self.host.limits.frame_deadline_ms / 1000
-        left = self._last_byte + limit - time.monotonic()
+        now = time.monotonic()
+        left = self._deadline_left(now)
         if left > 0:
             self._deadline = asyncio.get_running_loop().call_later(left, self._check_deadline)
             return
-        self._log_error(FrameTruncatedError(f"no byte of the frame for {limit:g} s"))
+        limits = self.host.limits
+        if now - self._last_byte >= limits.frame_deadline_ms / 1000:
+            detail = f"no byte of the frame for {limits.frame_deadline_ms / 1000:g} s"
+        else:  # OA-LIM-13: a frame trickled in slower than its whole deadline allows
+            detail = f"the frame took more than {limits.frame_total_deadline_ms / 1000:g} s"
+        self._log_error(FrameTruncatedError(detail))
         self.abort()  # OA-FRAME-12: the frame is discarded, the connection closed
 
     def _arm_keepalive(self) -> None:

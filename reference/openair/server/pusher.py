@@ -26,11 +26,17 @@ class Pusher:
     """The push subscription of one connection to one stream."""
 
     def __init__(
-        self, conn: ServerConnection, *, stream: str, capacity: int, window: int = 1
+        self,
+        conn: ServerConnection,
+        *,
+        stream: str,
+        capacity: int,
+        window: int = 1,
+        max_bytes: int = 0,
     ) -> None:
         self.conn = conn
         self.stream = stream
-        self.buffer = SampleBuffer(capacity)
+        self.buffer = SampleBuffer(capacity, max_bytes)  # OA-STREAM-8, OA-LIM-16
         self.window = window  # samples sent and not yet acknowledged (OA-DELIV-5)
         self.sent = 0
         self.refused = 0

@@ -8,8 +8,11 @@ first in, first out within a level (OA-PRIO-1, OA-PRIO-2). An item with a due ti
 The queue holds at most `capacity` items, delayed ones included (OA-DELIV-8). A push into a full
 queue first adds the new item and then drops, for this module only, the oldest item among those
 of the lowest message priority (the highest number) — which is the new item itself when it is
-strictly the lowest (OA-DELIV-9). Every operation is O(log n): three heaps share the items and
-forget removed ones lazily; a heap is rebuilt when most of it is stale.
+strictly the lowest (OA-DELIV-9). It also holds at most `max_bytes` bytes of frames
+(`max-queue-bytes`, OA-LIM-8): past it the same victims go, oldest of the lowest priority first,
+until the queue fits again; one item is always kept, whatever its size. Every operation is
+O(log n): three heaps share the items and forget removed ones lazily; a heap is rebuilt when
+most of it is stale.
 """
 
 from __future__ import annotations
@@ -19,7 +22,20 @@ from dataclasses import dataclass, field
 
 from openair.message import Message
 
-__all__ = ["DeliveryQueue", "QueueCounters", "QueueItem"]
+__all__ = ["DeliveryQueue", "QueueCounters", "QueueItem", "item_bytes"]
+
+#: What a delivery costs beyond its content and chunks: the envelope's slots and the frame header.
+_ENVELOPE_BYTES = 512
+
+
+def item_bytes(message: Message, wire: bytes | tuple[bytes, ...] | None) -> int:
+    """Return the bytes one queued delivery holds: its frame, or an estimate from its slots."""
+    if isinstance(wire, bytes):
+        return len(wire)
+    if wire is not None:
+        return sum(len(part) for part in wire)
+    size = _ENVELOPE_BYTES + len(message.content) + len(message.history) + len(message.comment)
+    return size + sum(len(chunk) for chunk in message.binary)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -39,6 +55,7 @@ class QueueItem:
     # The frame of `message` already written: bytes, or parts (header + XML, then chunks).
     wire: bytes | tuple[bytes, ...] | None = field(default=None, compare=False, repr=False)
     expires_ns: int = field(default=0, compare=False)  # OA-DELIV-14: 0 = never expires
+    size: int = field(default=0, compare=False)  # bytes it holds (OA-LIM-8)
 
     @property
     def order(self) -> tuple[float, float, int]:
@@ -55,13 +72,18 @@ class QueueCounters:
     dropped: int = 0
     discarded: int = 0
     peak: int = 0
+    dropped_bytes: int = 0  # bytes of the items dropped on overflow (OA-LIM-8)
 
 
 @dataclass(slots=True)
 class DeliveryQueue:
-    """The pending deliveries of one module, bounded by `capacity` (OA-DELIV-8)."""
+    """The pending deliveries of one module, bounded by `capacity` and `max_bytes` (OA-DELIV-8).
+
+    `max_bytes` 0 sets no byte bound.
+    """
 
     capacity: int
+    max_bytes: int = 0
     counters: QueueCounters = field(default_factory=QueueCounters)
     _ready: list[tuple[float, float, int]] = field(default_factory=list)
     _delayed: list[tuple[int, int]] = field(default_factory=list)
@@ -69,6 +91,7 @@ class DeliveryQueue:
     _items: dict[int, QueueItem] = field(default_factory=dict)
     _waiting: set[int] = field(default_factory=set)
     _seq: int = 0
+    _bytes: int = 0
 
     def __post_init__(self) -> None:
         if self.capacity < 1:
@@ -76,6 +99,11 @@ class DeliveryQueue:
 
     def __len__(self) -> int:
         return len(self._items)
+
+    @property
+    def held_bytes(self) -> int:
+        """The bytes the queued items hold (OA-LIM-8)."""
+        return self._bytes
 
     @property
     def delayed(self) -> int:
@@ -89,13 +117,35 @@ class DeliveryQueue:
         priority: float,
         wb_priority: float = 1.0,
         due_ns: int = 0,
-        wire: bytes | None = None,
+        wire: bytes | tuple[bytes, ...] | None = None,
         expires_ns: int = 0,
     ) -> QueueItem | None:
         """Queue `message`; return the item dropped for lack of room, if any (OA-DELIV-9).
 
-        `wire` is the message's frame when it was already written (sent as it is).
+        `wire` is the message's frame when it was already written (sent as it is). Use
+        `push_all` to learn of every item a byte bound drops.
         """
+        victims = self.push_all(
+            message,
+            priority=priority,
+            wb_priority=wb_priority,
+            due_ns=due_ns,
+            wire=wire,
+            expires_ns=expires_ns,
+        )
+        return victims[0] if victims else None
+
+    def push_all(
+        self,
+        message: Message,
+        *,
+        priority: float,
+        wb_priority: float = 1.0,
+        due_ns: int = 0,
+        wire: bytes | tuple[bytes, ...] | None = None,
+        expires_ns: int = 0,
+    ) -> list[QueueItem]:
+        """Queue `message`; return every item dropped for lack of room (OA-DELIV-9, OA-LIM-8)."""
         self._seq += 1
         item = QueueItem(
             message=message,
@@ -105,8 +155,10 @@ class DeliveryQueue:
             seq=self._seq,
             wire=wire,
             expires_ns=expires_ns,
+            size=item_bytes(message, wire),
         )
         self._items[item.seq] = item
+        self._bytes += item.size
         heapq.heappush(self._victims, (-priority, item.seq))
         if due_ns > 0:
             self._waiting.add(item.seq)
@@ -114,10 +166,14 @@ class DeliveryQueue:
         else:
             heapq.heappush(self._ready, item.order)
         self.counters.pushed += 1
-        victim = self._drop_one() if len(self._items) > self.capacity else None
+        victims: list[QueueItem] = []
+        if len(self._items) > self.capacity:
+            victims.append(self._drop_one())
+        while self.max_bytes and self._bytes > self.max_bytes and len(self._items) > 1:
+            victims.append(self._drop_one())  # OA-LIM-8: the same victims as OA-DELIV-9
         self.counters.peak = max(self.counters.peak, len(self._items))
         self._compact()
-        return victim
+        return victims
 
     def _drop_one(self) -> QueueItem:
         """Remove the oldest item of the lowest priority (OA-DELIV-9)."""
@@ -126,7 +182,9 @@ class DeliveryQueue:
             victim = self._items.pop(seq, None)
             if victim is not None:
                 self._waiting.discard(seq)
+                self._bytes -= victim.size
                 self.counters.dropped += 1
+                self.counters.dropped_bytes += victim.size
                 return victim
 
     def _promote(self, now_ns: int) -> None:
@@ -144,6 +202,7 @@ class DeliveryQueue:
             seq = heapq.heappop(self._ready)[2]
             item = self._items.pop(seq, None)
             if item is not None:
+                self._bytes -= item.size
                 self.counters.popped += 1
                 return item
         return None
@@ -165,6 +224,7 @@ class DeliveryQueue:
         """Remove every item (the module's session ended, OA-SESS-15) and return them in order."""
         items = sorted(self._items.values(), key=lambda i: i.order)
         self.counters.discarded += len(items)
+        self._bytes = 0
         self._items.clear()
         self._waiting.clear()
         self._ready.clear()

@@ -22,7 +22,7 @@ from openair.message import Message
 from openair.objects import encode_message_collection, parse_content
 from openair.registration import parse_retrieve_element, parse_retrieves
 from openair.server.commands import error_reply, reply
-from openair.server.whiteboard import Whiteboard
+from openair.server.whiteboard import Whiteboard, text_bytes
 from openair.xmlsafe import local_name
 
 __all__ = ["RETRIEVE", "RETRIEVES", "answer_retrieve", "parse_request", "registration_results"]
@@ -71,7 +71,13 @@ def answer_retrieve(
             board = whiteboards.get(spec.whiteboard or addressee.name)  # OA-RET-2, OA-WB-10
             if board is None:
                 raise WhiteboardUnknownError(spec.whiteboard)  # OA-RET-11
-            results.extend(board.retrieve(spec, now_ns=now_ns))
+            # The scan stops once the results alone pass max-frame-xml: such a reply is
+            # refused anyway (OA-RET-15), and a huge board must not hold the loop (issue #19).
+            results.extend(board.retrieve(spec, now_ns=now_ns, max_bytes=max_xml))
+            if sum(text_bytes(m) for m in results) > max_xml:
+                raise LimitExceededError(
+                    f"the results exceed max-frame-xml ({max_xml} bytes); ask for fewer with latest"
+                )
         content = encode_message_collection(results)  # OA-RET-7
         if len(content.encode("utf-8")) + _ENVELOPE_ALLOWANCE > max_xml:  # OA-RET-15
             raise LimitExceededError(
@@ -98,15 +104,31 @@ def registration_results(
     whiteboards: Mapping[str, Whiteboard],
     *,
     now_ns: int,
+    max_count: int = 0,
+    max_bytes: int = 0,
 ) -> list[Message]:
     """Evaluate a woken module's retrieves at decision time (OA-WAKE-7, OA-WAKE-3).
 
     A retrieve without `from` reads the whiteboard that stored the trigger message; one whose
-    `from` names no whiteboard adds nothing (OA-REG-9).
+    `from` names no whiteboard adds nothing (OA-REG-9). All the retrieves together give at most
+    `max_count` messages whose text slots hold at most `max_bytes` (OA-LIM-9; 0 = no bound):
+    the first results in the order of the retrieves, newest first within each, and no scan goes
+    past the bound.
     """
     results: list[Message] = []
+    size = 0
     for spec in retrieves:
         board = whiteboards.get(spec.whiteboard) if spec.whiteboard else trigger_board
-        if board is not None:
-            results.extend(board.retrieve(spec, now_ns=now_ns))
+        if board is None:
+            continue
+        room = max_count - len(results) if max_count else 0
+        budget = max_bytes - size if max_bytes else 0
+        found = board.retrieve(spec, now_ns=now_ns, limit=room, max_bytes=budget)
+        for msg in found:
+            size += text_bytes(msg)
+            if max_bytes and size > max_bytes:
+                return results  # OA-LIM-9: this one and the rest do not fit
+            results.append(msg)
+        if max_count and len(results) >= max_count:
+            break
     return results

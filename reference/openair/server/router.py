@@ -16,9 +16,11 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
+from openair.auth import AUTH_ACCEPT, AUTH_NONCE
 from openair.content import ANY_WHITEBOARD, Dictionary, Phase, Registration, TcpLocation
 from openair.errors import (
     BindRefusedError,
+    LimitExceededError,
     MessageInvalidError,
     OpenAIRError,
     ShuttingDownError,
@@ -32,6 +34,7 @@ from openair.message import Message
 from openair.objects import encode_dictionary, encode_tcplocation
 from openair.registration import parse_registration
 from openair.server import commands as cmd
+from openair.server.auth import AuthGate
 from openair.server.config import (
     AIRCENTRAL,
     DEFAULT_WB_PRIORITY,
@@ -41,6 +44,7 @@ from openair.server.config import (
     ServerLimits,
 )
 from openair.server.contexts import PHASE_CHANGE, Contexts, context_of
+from openair.server.queues import item_bytes
 from openair.server.retrieve import RETRIEVE, RETRIEVES, answer_retrieve, registration_results
 from openair.server.sessions import ConnId, ModuleInfo, Sessions
 from openair.server.store import HistoryStore
@@ -160,11 +164,15 @@ class Router:
         limits: ServerLimits,
         extensions: frozenset[str],
         port_allocator: Callable[[int], int] | None = None,
+        auth: AuthGate | None = None,
     ) -> None:
         self.config = config
+        self._auth = auth  # secure mode (14.3); None: legacy
         self.server_name = server_name
         #: Extra counters (the adapter's queues) that STATUS reports beside the router's own.
         self.status_extra: Callable[[], Mapping[str, object]] | None = None
+        #: The bytes the adapter's delivery queues hold, for the held-bytes budget (OA-LIM-14).
+        self.queued_bytes: Callable[[], int] | None = None
         #: Called with (whiteboard, stored message, its deliveries) after every stored post; the
         #: web monitor's tap. It must do O(1) work and never raise (routing waits for it).
         self.observer: Callable[[str, Message, tuple[Delivery, ...]], None] | None = None
@@ -179,7 +187,8 @@ class Router:
         self._qos = "qos" in extensions  # OA-DELIV-14, OA-TRIG-5
         self._shutting_down = False
         self._whiteboards = {
-            wb.name: Whiteboard.from_config(wb, store) for wb in config.whiteboards
+            wb.name: Whiteboard.from_config(wb, store, max_bytes=limits.max_history_bytes)
+            for wb in config.whiteboards
         }
         typed = "typed-streams" in extensions
         self.streams = StreamService(
@@ -187,6 +196,8 @@ class Router:
             typed=typed,
             noreply=self._noreply,
             max_wait_ms=limits.max_wait_ms,
+            max_created=limits.max_created_streams,  # OA-LIM-17
+            max_created_bytes=limits.max_created_stream_bytes,
         )
         self._configured = {m.name: m.registration for m in config.modules}  # OA-CONF-5
         self._sessions = Sessions(reserved=self._reserved, port_allocator=port_allocator)
@@ -196,6 +207,7 @@ class Router:
         self._triggers: dict[str, _Triggers] = {}
         self._valid_types: set[str] = set()
         self._counters: dict[str, _ModuleCounters] = {}
+        self._gone: dict[str, int] = {}  # unbound names with counters -> when they were seen gone
         self._lost_notices = 0
         self._copies = EncodedCopies()
         # Spec 8.9: the active contexts and phase sequencing; None without the extension.
@@ -236,6 +248,8 @@ class Router:
     def connection_closed(self, conn: ConnId, *, now_ns: int) -> Outcome:
         """Forget a connection; a primary one loses its modules (OA-SESS-15)."""
         self.streams.connection_closed(conn)  # its waits, push subscription and locks end
+        if self._auth is not None:
+            self._auth.closed(conn)  # OA-AUTH-4: proofs end with the connection
         names, close = self._sessions.closed(conn)  # their callbacks are closed too
         if not names:
             return Outcome()
@@ -247,6 +261,23 @@ class Router:
             for name in names:
                 deliveries.extend(self._notice(f"Psyclone.Module.Lost.{name}", now_ns))
         return Outcome(deliveries=tuple(deliveries), close_conns=close, discard_queues=tuple(names))
+
+    def forget_gone(self, now_ns: int, retention_ns: int) -> int:
+        """Forget the counters of modules unbound for `retention_ns` or more (OA-LIM-15).
+
+        Call it now and then: a name is seen gone at the first call that finds it unbound, and
+        forgotten at the first call `retention_ns` after that. Return how many were forgotten.
+        """
+        forgotten = 0
+        for name in [n for n in self._counters if n not in self._modules]:
+            since = self._gone.setdefault(name, now_ns)
+            if now_ns - since >= retention_ns:
+                del self._counters[name]
+                del self._gone[name]
+                forgotten += 1
+        for name in [n for n in self._gone if n in self._modules]:
+            del self._gone[name]  # bound again: its counters count on
+        return forgotten
 
     def hold(self, name: str) -> None:
         """Refuse every later BIND of `name`: an internal module is bound to it (OA-CONF-8)."""
@@ -329,6 +360,10 @@ class Router:
     ) -> Outcome:
         if self._shutting_down:  # OA-SESS-24
             return self._refuse_shutting_down(msg, now_ns)
+        if self._auth is not None:
+            refused = self._auth_screen(conn, msg, tag, now_ns)  # OA-AUTH-5, -6, -8
+            if refused is not None:
+                return refused
         if tag is FrameTag.RECEIVE:
             return self._receive_frame(conn, msg, now_ns)
         if msg.sender in self._modules:
@@ -371,6 +406,9 @@ class Router:
         }
         if "gettime" in self.extensions:
             cns["GET_TIME"] = self._time  # OA-EXT-2 (only when advertised, OA-CAP-3)
+        if self._auth is not None:  # OA-AUTH-2, OA-AUTH-3; legacy: UNKNOWN_COMMAND
+            cns["AUTH_CHALLENGE"] = self._auth_challenge
+            cns["AUTH_RESPONSE"] = self._auth_response
         return {
             "CNS": cns,
             "Config": {**session, "GET_ENTRY": self._entry},
@@ -423,6 +461,9 @@ class Router:
                 self._check_type(msg.type)  # OA-TYPE-3, OA-TYPE-4
             except TypeInvalidError as err:
                 return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
+        over = self._over_budget(board, msg)
+        if over is not None:  # OA-LIM-14: refused before it is stored, so never acknowledged
+            return Outcome(replies=(self._error(msg, over, board.name, now_ns),))
         try:
             stored = board.store_post(msg, received_ns)  # OA-TIME-3, OA-WB-4, OA-WB-5
         except StoreFailedError as err:  # OA-WB-3: not stored, so not acknowledged
@@ -439,6 +480,26 @@ class Router:
             return Outcome(deliveries=deliveries)
         ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=board.name, now_ns=now_ns)  # OA-WB-3
         return Outcome(replies=(ack,), deliveries=deliveries)
+
+    def _over_budget(self, board: Whiteboard, msg: Message) -> LimitExceededError | None:
+        """Refuse a post that would take the bytes held past `max-held-bytes` (OA-LIM-14).
+
+        Held: every whiteboard's stored copies and every delivery queue; what storing the post
+        evicts from its own whiteboard (OA-LIM-10) is counted as freed.
+        """
+        size = item_bytes(msg, None)
+        held = sum(b.bytes for b in self._whiteboards.values())
+        if self.queued_bytes is not None:
+            held += self.queued_bytes()
+        if board.max_bytes:
+            held -= max(0, min(board.bytes, board.bytes + size - board.max_bytes))
+        limit = self.limits.max_held_bytes
+        if held + size <= limit:
+            return None
+        return LimitExceededError(
+            f"the server holds {held} bytes; storing {size} more would pass max-held-bytes"
+            f" ({limit}); try again later"
+        )
 
     def _check_type(self, type_: str) -> None:
         limits = self.limits
@@ -465,7 +526,14 @@ class Router:
             else:
                 phase = self._phase_in_force(name, reg)
             retrieved: Sequence[Message] = (
-                registration_results(phase.retrieves, board, self._whiteboards, now_ns=now_ns)
+                registration_results(
+                    phase.retrieves,
+                    board,
+                    self._whiteboards,
+                    now_ns=now_ns,
+                    max_count=limits.max_wakeup_results,  # OA-LIM-9
+                    max_bytes=limits.max_wakeup_result_bytes,
+                )
                 if phase is not None and phase.retrieves
                 else ()
             )  # OA-WAKE-7
@@ -774,6 +842,42 @@ class Router:
         if close is None:
             return Outcome(close_this=True)  # no module can ever bind that name
         return Outcome(close_conns=close)
+
+    def _auth_screen(
+        self, conn: ConnId, msg: Message, tag: FrameTag, now_ns: int
+    ) -> Outcome | None:
+        """Refuse what this connection may not do in secure mode (OA-AUTH-5, -6, -8)."""
+        assert self._auth is not None
+        to = msg.to or "CNS"
+        board = to in self._whiteboards
+        post = board or (to not in self._components and to in self._modules)
+        refusal = self._auth.screen(
+            conn, msg, receive=tag is FrameTag.RECEIVE, cns=to == "CNS", post=post
+        )
+        if refusal is None:
+            return None
+        sender = to if board or to in self._components else "CNS"
+        answer = cmd.error_reply(
+            msg, refusal.error, sender=sender, now_ns=now_ns, type_=refusal.reply_type
+        )
+        return Outcome(replies=(answer,), close_this=refusal.close)
+
+    def _auth_challenge(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """Answer a fresh nonce for this connection (OA-AUTH-2)."""
+        assert self._auth is not None
+        nonce = self._auth.challenge(conn)
+        return Outcome(
+            replies=(cmd.reply(msg, AUTH_NONCE, sender="CNS", now_ns=now_ns, content=nonce),)
+        )
+
+    def _auth_response(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
+        """Prove `from` on this connection, or answer AUTH_FAILED (OA-AUTH-3)."""
+        assert self._auth is not None
+        try:
+            self._auth.respond(conn, msg.sender, msg.content)
+        except OpenAIRError as err:
+            return Outcome(replies=(self._error(msg, err, "CNS", now_ns),))
+        return Outcome(replies=(cmd.reply(msg, AUTH_ACCEPT, sender="CNS", now_ns=now_ns),))
 
     def _notification_in_message(
         self, conn: ConnId, msg: Message, received_ns: int, now_ns: int

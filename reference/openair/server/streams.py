@@ -694,14 +694,20 @@ def _params_match(sample: DataSample, matchers: list[tuple[str, Callable[[str], 
 
 
 class SampleBuffer:
-    """Bounded per-subscriber buffer (OA-STREAM-8): drops the oldest, counts drops per take."""
+    """Bounded per-subscriber buffer (OA-STREAM-8): drops the oldest, counts drops per take.
 
-    __slots__ = ("_dropped", "_items", "capacity", "dropped_total")
+    Bounded by `capacity` samples and, unless 0, by `max_bytes` of payload (OA-LIM-16): a
+    buffer keeps samples the stream itself may have evicted alive; one sample is always kept.
+    """
 
-    def __init__(self, capacity: int) -> None:
+    __slots__ = ("_dropped", "_items", "bytes", "capacity", "dropped_total", "max_bytes")
+
+    def __init__(self, capacity: int, max_bytes: int = 0) -> None:
         if capacity < 1:
             raise ApiMisuseError(f"sample buffer capacity {capacity} is less than 1")
         self.capacity = capacity
+        self.max_bytes = max_bytes
+        self.bytes = 0
         self.dropped_total = 0
         self._dropped = 0
         self._items: deque[StoredSample] = deque()
@@ -713,15 +719,19 @@ class SampleBuffer:
         return f"<SampleBuffer {len(self._items)}/{self.capacity} dropped={self.dropped_total}>"
 
     def offer(self, s: StoredSample) -> int:
-        """Queue `s`; return how many samples this dropped (0 or 1, the oldest unsent one)."""
+        """Queue `s`; return how many samples this dropped (the oldest unsent ones)."""
         items = self._items
-        dropped = 0
-        if len(items) >= self.capacity:  # OA-STREAM-8: the slow subscriber loses, alone
-            items.popleft()
-            dropped = 1
-            self._dropped += 1
-            self.dropped_total += 1
         items.append(s)
+        self.bytes += s.size
+        dropped = 0
+        # OA-STREAM-8: the slow subscriber loses, alone; OA-LIM-16: by bytes as well
+        while len(items) > 1 and (
+            len(items) > self.capacity or (self.max_bytes and self.bytes > self.max_bytes)
+        ):
+            self.bytes -= items.popleft().size
+            dropped += 1
+        self._dropped += dropped
+        self.dropped_total += dropped
         return dropped
 
     def take(self) -> tuple[StoredSample, int] | None:
@@ -729,4 +739,6 @@ class SampleBuffer:
         if not self._items:
             return None
         dropped, self._dropped = self._dropped, 0
-        return self._items.popleft(), dropped
+        taken = self._items.popleft()
+        self.bytes -= taken.size
+        return taken, dropped

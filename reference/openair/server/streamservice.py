@@ -21,6 +21,7 @@ from openair.content import Registration
 from openair.datasample import DataSample, decode_chunk
 from openair.errors import (
     ContentInvalidError,
+    LimitExceededError,
     LockUnknownError,
     MessageInvalidError,
     OpenAIRError,
@@ -170,8 +171,14 @@ class StreamService:
         noreply: bool,
         max_wait_ms: int,
         reserved: Mapping[str, object] | None = None,
+        max_created: int = 0,
+        max_created_bytes: int = 0,
     ) -> None:
         self.typed = typed  # OA-XSTREAM-*: the typed-streams extension is advertised
+        # OA-LIM-17: streams created at run time, how many and how large (0: unbounded)
+        self._max_created = max_created
+        self._max_created_bytes = max_created_bytes
+        self._created = 0
         self._noreply = noreply
         self._max_wait_ms = max_wait_ms
         self._states: dict[str, _StreamState] = {}
@@ -225,11 +232,27 @@ class StreamService:
         if board not in boards:
             raise ContentInvalidError(f"<stream whiteboard={board!r}> names no whiteboard")
         cfg = _stream_config(el, name)
+        self._check_created(cfg)
         spec = StreamSpec.from_config(cfg, board, typed_streams=self.typed, whiteboards=boards)
         if spec.type is not None and ascii_fold(spec.type) in self._by_type:
             raise ContentInvalidError(f"the stream type {spec.type!r} is already in use")
         self._add(spec)
+        self._created += 1
         return name
+
+    def _check_created(self, cfg: StreamConfig) -> None:
+        """Refuse a run-time stream past OA-LIM-17 (LIMIT_EXCEEDED, a clear reason)."""
+        if self._max_created and self._created >= self._max_created:
+            raise LimitExceededError(
+                f"{self._created} streams were created at run time; max-created-streams is"
+                f" {self._max_created}"
+            )
+        size = cfg.maxsize * 1024 * 1024
+        if self._max_created_bytes and size > self._max_created_bytes:
+            raise LimitExceededError(
+                f"<stream maxsize={cfg.maxsize:g}> is {size:.0f} bytes; max-created-stream-bytes"
+                f" is {self._max_created_bytes}"
+            )
 
     def _add(self, spec: StreamSpec) -> None:
         self._states[spec.name] = _StreamState(stream=Stream(spec))

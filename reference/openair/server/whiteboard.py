@@ -3,6 +3,9 @@
 Sans-I/O: time comes in as nanoseconds. The stored copies live in a deque in arrival order;
 retrieves scan it from the newest end and stop as soon as `latest` is reached or the received
 times fall below the lower time bound, so `latest=1` on a full board costs one step.
+
+Besides `maxcount`, the copies kept are bounded by `max_bytes` (`max-history-bytes`, OA-LIM-10):
+the oldest go first, as with maxcount; the newest copy is always kept.
 """
 
 from __future__ import annotations
@@ -19,9 +22,10 @@ from openair.matching import matches
 from openair.message import Message
 from openair.server.commands import ms_time
 from openair.server.config import DEFAULT_MAXCOUNT, DEFAULT_WB_PRIORITY, WhiteboardConfig
+from openair.server.queues import item_bytes
 from openair.server.store import HistoryStore
 
-__all__ = ["Whiteboard", "content_glob", "derive", "text_of", "xml_text_of"]
+__all__ = ["Whiteboard", "content_glob", "derive", "text_bytes", "text_of", "xml_text_of"]
 
 _NS_PER_MS = 1_000_000
 # Evict from the store in batches: memory is exact (OA-WB-6), the store may lag a little, and
@@ -36,6 +40,11 @@ def derive(msg: Message, **changes: Any) -> Message:
     (stored, receivedTime, wbid, postedTime).
     """
     return derived(msg, **changes)
+
+
+def text_bytes(msg: Message) -> int:
+    """Return a lower bound of the XML bytes `msg` takes in a collection: its text slots."""
+    return len(msg.content) + len(msg.history) + len(msg.comment)
 
 
 def content_glob(pattern: str) -> Callable[[str], bool]:
@@ -85,11 +94,14 @@ class Whiteboard:
         maxcount: int = DEFAULT_MAXCOUNT,
         priority: float = DEFAULT_WB_PRIORITY,
         store: HistoryStore | None = None,
+        max_bytes: int = 0,
     ) -> None:
         if maxcount < 1:
             raise ValueError(f"maxcount must be at least 1, not {maxcount}")
         self.name = name
         self.maxcount = maxcount
+        self.max_bytes = max_bytes  # OA-LIM-10: 0 = no byte bound
+        self.bytes = 0  # what the stored copies hold
         self.priority = priority
         self.received = 0  # posts addressed to it, stored or not (counted by the router)
         self.stored = 0  # posts stored since start
@@ -102,13 +114,25 @@ class Whiteboard:
         self._last_ns = 0
         self._store_evicted_through = 0
         self._batch = max(1, min(_MAX_EVICT_BATCH, maxcount // 8))
+        # The store lags by at most a batch of copies, and by at most this many bytes of them
+        # (an in-memory store holds what it has not evicted yet: OA-LIM-10).
+        self._lag_bytes = 0
+        self._batch_bytes = max(1 << 20, max_bytes // 16) if max_bytes else 0
         if store is not None:
             self._reload(store.load(name))
 
     @classmethod
-    def from_config(cls, config: WhiteboardConfig, store: HistoryStore | None) -> Whiteboard:
+    def from_config(
+        cls, config: WhiteboardConfig, store: HistoryStore | None, *, max_bytes: int = 0
+    ) -> Whiteboard:
         """Build the whiteboard a `<whiteboard>` declares (OA-CONF-2)."""
-        return cls(config.name, maxcount=config.maxcount, priority=config.priority, store=store)
+        return cls(
+            config.name,
+            maxcount=config.maxcount,
+            priority=config.priority,
+            store=store,
+            max_bytes=max_bytes,
+        )
 
     def __repr__(self) -> str:
         return f"<Whiteboard {self.name}: {len(self._messages)} of {self.maxcount} messages>"
@@ -157,20 +181,27 @@ class Whiteboard:
                 raise StoreFailedError(f"{self.name}: {exc}") from exc
         self._next_wbid += 1
         self._messages.append(copy)
+        self.bytes += item_bytes(copy, None)
         self.stored += 1
-        if len(self._messages) > self.maxcount:
+        if len(self._messages) > self.maxcount or (self.max_bytes and self.bytes > self.max_bytes):
             self._evict()
         return copy
 
-    def retrieve(self, spec: RetrieveSpec, *, now_ns: int) -> list[Message]:
+    def retrieve(
+        self, spec: RetrieveSpec, *, now_ns: int, limit: int = 0, max_bytes: int = 0
+    ) -> list[Message]:
         """Return the stored copies `spec` selects, newest first (OA-RET-3..9, OA-RET-6).
 
         The spec's `whiteboard` is not looked at: the caller chose this whiteboard (OA-RET-2).
+        `limit` caps the results below `latest`; with `max_bytes` the scan stops at the first
+        result that takes their `text_bytes` past it (that one included: the caller sees it).
         """
         accept = _criteria(spec)
         lower_us = _lower_bound_us(spec, now_ns)
         upper_us = spec.until_time.us if spec.until_time is not None else None
-        limit = spec.latest  # OA-RET-4: 0 = no limit
+        latest = spec.latest  # OA-RET-4: 0 = no limit
+        limit = min(latest, limit) if latest and limit else latest or limit
+        size = 0
         found: list[Message] = []
         for msg in reversed(self._messages):
             received_us = msg.received.us if msg.received is not None else 0
@@ -182,6 +213,10 @@ class Whiteboard:
                 found.append(msg)
                 if len(found) == limit:
                     break
+                if max_bytes:
+                    size += text_bytes(msg)
+                    if size > max_bytes:
+                        break
         return found
 
     def _reload(self, history: list[Message]) -> None:
@@ -195,16 +230,28 @@ class Whiteboard:
             through = kept[0].wbid or 0
             self._evict_store(through - 1)
         self._messages.extend(kept)
+        self.bytes = sum(item_bytes(m, None) for m in kept)
+        if self.max_bytes and self.bytes > self.max_bytes:
+            self._evict()
         newest = kept[-1].received
         self._last_ns = newest.ms * _NS_PER_MS if newest is not None else 0
 
     def _evict(self) -> None:
-        """Drop the oldest copies beyond maxcount (OA-WB-6), and from the store in batches."""
-        while len(self._messages) > self.maxcount:
-            self._messages.popleft()
+        """Drop the oldest copies beyond maxcount (OA-WB-6) or max_bytes (OA-LIM-10).
+
+        From the store in batches.
+        """
+        while len(self._messages) > self.maxcount or (
+            self.max_bytes and self.bytes > self.max_bytes and len(self._messages) > 1
+        ):
+            size = item_bytes(self._messages.popleft(), None)
+            self.bytes -= size
+            self._lag_bytes += size
             self.evicted += 1
         oldest_kept = self._messages[0].wbid or 0
-        if oldest_kept - 1 - self._store_evicted_through >= self._batch:
+        if oldest_kept - 1 - self._store_evicted_through >= self._batch or (
+            self._batch_bytes and self._lag_bytes >= self._batch_bytes
+        ):
             self._evict_store(oldest_kept - 1)
 
     def _evict_store(self, through: int) -> None:
@@ -216,6 +263,7 @@ class Whiteboard:
             self.evict_errors += 1
             return
         self._store_evicted_through = through
+        self._lag_bytes = 0
 
 
 def _lower_bound_us(spec: RetrieveSpec, now_ns: int) -> int | None:

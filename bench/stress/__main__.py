@@ -1,0 +1,130 @@
+"""Run the attacks of issue #19 against a fresh `openair serve` and print a verdict for each.
+
+`python -m bench.stress [NAME ...]` (NAME: part of an attack's name). The server runs in a
+subprocess with the budgets below; each attack is preceded by a quiet canary period, and its
+verdict is:
+
+* held — the bound held, the server is alive, its RSS grew less than the attack's budget and
+  the canary's p99 stayed under 10 x the quiet one;
+* degraded — the bound held and the server lives, but RSS or the canary's p99 went past that;
+* broken — the bound did not hold, the server died, or the canary got no answer.
+
+Exit status: 0 when nothing broke, 1 otherwise.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from bench.stress.attacks import ATTACKS, Attack, Figures
+from bench.stress.wire import Canary, p99
+
+QUIET_S = 1.5
+_DEGRADED_RATIO = 10.0
+#: The stress server's budgets: small enough that every attack passes them many times over.
+BUDGETS = (
+    "--max-queue-bytes=33554432",
+    "--max-history-bytes=67108864",
+    "--max-partial-bytes=67108864",
+    "--max-wakeup-result-bytes=4194304",
+)
+
+
+def _rss_mib(pid: int) -> float:
+    """Return the resident set size of process `pid` in MiB (0 when it is gone)."""
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return 0.0
+
+
+def _start() -> tuple[subprocess.Popen[str], int]:
+    exe = Path(sys.executable).with_name("openair")
+    cmd = [str(exe) if exe.exists() else sys.executable, "serve", "--port", "0", *BUDGETS]
+    if not exe.exists():
+        cmd[1:1] = ["-m", "openair.cli"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    return proc, int(line.split()[2].rsplit(":", 1)[1].rstrip(")"))
+
+
+async def _peak_rss(pid: int, peak: list[float], stop: asyncio.Event) -> None:
+    while not stop.is_set():
+        peak[0] = max(peak[0], _rss_mib(pid))
+        await asyncio.sleep(0.05)
+
+
+async def _one(
+    name: str, attack: Attack, budget: int, proc: subprocess.Popen[str], port: int
+) -> bool:
+    canary = Canary(port)
+    canary.start()
+    await asyncio.sleep(QUIET_S)
+    quiet = canary.take()
+    base = _rss_mib(proc.pid)
+    peak, stop = [base], asyncio.Event()
+    sampler = asyncio.create_task(_peak_rss(proc.pid, peak, stop))
+    began = time.monotonic()
+    try:
+        figures: Figures = await asyncio.wait_for(attack(port), 300.0)
+    except Exception as exc:  # an attack that fails is reported, the others still run
+        figures = Figures(held=False, notes={"error": repr(exc)[:120]})
+    took = time.monotonic() - began
+    stop.set()
+    await sampler
+    loud = canary.take()
+    canary.stop()
+    alive = proc.poll() is None
+    ratio = p99(loud) / p99(quiet) if quiet and loud else float("inf")
+    grew = peak[0] - base
+    if not (figures.held and alive and loud):
+        verdict = "broken"
+    elif grew > budget or ratio > _DEGRADED_RATIO:
+        verdict = "degraded"
+    else:
+        verdict = "held"
+    notes = " ".join(f"{k}={v}" for k, v in figures.notes.items())
+    print(
+        f"{verdict:9} {name:26} {took:6.1f}s  rss {base:6.0f}->{peak[0]:6.0f} MiB"
+        f" (+{grew:.0f} of budget {budget} MiB)  canary p99 {p99(loud):7.1f} ms"
+        f" = {ratio:6.1f} x quiet {p99(quiet):.1f} ms  {notes}",
+        flush=True,
+    )
+    return verdict != "broken" and alive
+
+
+async def _main(filters: Sequence[str]) -> int:
+    chosen = [a for a in ATTACKS if not filters or any(f in a[0] for f in filters)]
+    print(f"load average at start: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(f"server budgets: {' '.join(BUDGETS)}")
+    proc, port = _start()
+    ok = True
+    try:
+        for name, item, attack, budget in chosen:
+            if proc.poll() is not None:
+                print(f"broken    {name:26} (item {item}) the server is gone")
+                ok = False
+                continue
+            ok &= await _one(f"{name} (#{item})", attack, budget, proc, port)
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    print(f"load average at end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(asyncio.run(_main(sys.argv[1:])))

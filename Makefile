@@ -112,9 +112,9 @@ CPP_SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 ## header-only nlohmann/json (shim, tests) and CLI11 (examples, tools).
 deps-cpp:
 	@if [ ! -f /usr/include/gtest/gtest.h ] || [ ! -f /usr/include/nlohmann/json.hpp ] \
-		|| [ ! -f /usr/include/CLI/CLI.hpp ]; then \
+		|| [ ! -f /usr/include/CLI/CLI.hpp ] || [ ! -f /usr/include/openssl/ssl.h ]; then \
 		$(CPP_SUDO) apt-get update && \
-		$(CPP_SUDO) apt-get install -y libgtest-dev nlohmann-json3-dev libcli11-dev; \
+		$(CPP_SUDO) apt-get install -y libgtest-dev nlohmann-json3-dev libcli11-dev libssl-dev; \
 	fi
 
 ## Configure and build the C++ client, examples and shim (Release) into bindings/cpp/build.

@@ -181,6 +181,7 @@ void client::impl::establish(bool first) {
     primary = open(detail::conn_kind::primary, role::requester);
     try {
         negotiate();
+        if (opt.secret) prove_primary();  // before BIND and anything that acts (OA-AUTH-5)
         if (opt.bind) {
             bind_and_receive();
             if (reg) send_registration();
@@ -270,16 +271,17 @@ void client::impl::close_all() noexcept {
     closed = true;
     for (detail::connection* c : {primary.get(), callback.get()}) {
         if (c != nullptr && !c->dead) {
-            (void)detail::write_some(c->fd.get(), c->out);  // best effort for answers owed
+            (void)detail::write_some(*c, c->out);  // best effort for answers owed
+            c->tls.reset();
             c->fd.reset();
             c->dead = true;
         }
     }
     for (auto& a : accepted) {
-        if (!a->dead) (void)detail::write_some(a->fd.get(), a->out);
+        if (!a->dead) (void)detail::write_some(*a, a->out);
     }
     for (auto& e : extra) {
-        if (!e->dead) (void)detail::write_some(e->fd.get(), e->out);
+        if (!e->dead) (void)detail::write_some(*e, e->out);
     }
     extra.clear();
     for (auto& sub : subscriptions) {

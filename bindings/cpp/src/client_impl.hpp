@@ -13,6 +13,7 @@
 
 #include "openair/client.hpp"
 #include "socket.hpp"
+#include "tls_socket.hpp"
 
 namespace openair {
 
@@ -29,6 +30,8 @@ struct connection {
     int id = 0;
     conn_kind kind = conn_kind::primary;
     fd_handle fd;
+    /// TLS over `fd` (secure mode, OA-AUTH-10); declared after `fd`, so destroyed before it.
+    std::unique_ptr<tls_stream> tls;
     session sess;
     std::string out;  // bytes not yet written
     bool dead = false;
@@ -46,6 +49,14 @@ struct connection {
     /// Requests sent on a stream connection, awaiting replies in order (OA-SESS-33).
     std::deque<std::uint64_t> tickets;
 };
+
+/// Read or write a connection, through TLS when it has it.
+inline io_result read_some(connection& c, char* buf, std::size_t size) {
+    return c.tls ? c.tls->read_some(buf, size) : read_some(c.fd.get(), buf, size);
+}
+inline io_result write_some(connection& c, std::string_view data) {
+    return c.tls ? c.tls->write_some(data) : write_some(c.fd.get(), data);
+}
 
 /// A delivery waiting for `poll` to hand it to a callback.
 struct delivery {
@@ -95,6 +106,7 @@ struct client::impl {
     std::map<std::string, std::unique_ptr<detail::stream_state>> streams;
     std::vector<std::unique_ptr<detail::subscription_state>> subscriptions;
     std::function<void(const received_sample&)> on_sample;
+    std::unique_ptr<detail::tls_context> tls;  // set when `opt.tls.enabled`
     detail::fd_handle listener;
     std::optional<std::uint16_t> listening_port;
     int next_conn_id = 1;
@@ -159,6 +171,16 @@ struct client::impl {
     void maintain();
     std::size_t dispatch();
     void close_all() noexcept;
+
+    // -- client_auth.cpp: secure mode (extension `auth`, spec 14.3) ----------------------------
+    /// Refuse to go on at a server that does not advertise `auth` (OA-AUTH-12).
+    void require_auth() const;
+    /// Prove the module's name on the primary connection (OA-AUTH-2, OA-AUTH-3).
+    void prove_primary();
+    /// Prove the module's name on a new connection before its first frame (OA-AUTH-4,
+    /// OA-AUTH-6): a blocking exchange on that connection alone.
+    void prove_on(detail::connection& c);
+    message exchange_on(detail::connection& c, message msg, steady::time_point deadline);
 
     // -- client_streams.cpp: stream connections and push subscriptions ---------------------------
     /// The handle's connection, opened (and named with GET_NAME) when needed.

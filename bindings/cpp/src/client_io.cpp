@@ -38,6 +38,11 @@ client::impl::impl(client_options o) : opt(std::move(o)) {
     if (opt.bind && !opt.listen && !opt.callback) {
         throw error(errc::api_misuse, "BIND_NOLISTEN needs the callback connection (OA-DELIV-10)");
     }
+    if (opt.secret && opt.name.empty()) {
+        throw error(errc::api_misuse, "a secret proves a name: the client needs a name");
+    }
+    if (opt.tls.enabled) tls = std::make_unique<detail::tls_context>(
+        detail::tls_settings{opt.tls.ca_file, opt.tls.verify_host});
     backoff = opt.reconnect_delay;
 }
 
@@ -50,7 +55,14 @@ std::unique_ptr<detail::connection> client::impl::open(detail::conn_kind kind, r
     c->id = next_conn_id++;
     c->kind = kind;
     c->fd = detail::connect_tcp(opt.host, opt.port, opt.request_timeout);
+    if (tls) {  // OA-AUTH-10
+        c->tls = std::make_unique<detail::tls_stream>(*tls, c->fd.get(), opt.host,
+                                                      opt.request_timeout);
+    }
     c->sess = session(r, opt.clock, 1, extensions, opt.name, opt.limits);
+    // OA-AUTH-4, OA-AUTH-6: a callback, stream or push connection proves the name before its
+    // first frame; the primary proves it after GET_CAPABILITIES (establish).
+    if (opt.secret && kind != detail::conn_kind::primary) prove_on(*c);
     return c;
 }
 
@@ -68,7 +80,7 @@ detail::connection* client::impl::find(int id) {
 
 void client::impl::flush(detail::connection& c) {
     while (!c.dead && !c.out.empty()) {
-        detail::io_result r = detail::write_some(c.fd.get(), c.out);
+        detail::io_result r = detail::write_some(c, c.out);
         if (r.closed) {
             drop(c, "write failed: " + r.reason);
             return;
@@ -83,6 +95,7 @@ void client::impl::drop(detail::connection& c, const std::string& reason) {
     if (c.dead) return;
     c.dead = true;
     c.reason = reason;
+    c.tls.reset();
     c.fd.reset();
     c.sess.close();
     c.out.clear();
@@ -261,14 +274,16 @@ void client::impl::pump(steady::time_point deadline) {
         owners.push_back(nullptr);
     }
     auto now = steady::now();
+    bool buffered = false;  // TLS holds decrypted bytes that poll(2) cannot see
+    for (detail::connection* c : owners) buffered = buffered || (c && c->tls && c->tls->pending());
     // Rounded up: a deadline less than 1 ms away would otherwise spin with poll(…, 0).
     auto wait = std::chrono::ceil<std::chrono::milliseconds>(deadline - now);
-    wait = std::clamp(wait, std::chrono::milliseconds(0), max_wait);
+    wait = buffered ? std::chrono::milliseconds(0) : std::clamp(wait, {}, max_wait);
     int rc = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()));
     if (rc < 0 && errno != EINTR) throw error(errc::connection_closed, "poll failed");
-    for (std::size_t i = 0; rc > 0 && i < fds.size(); ++i) {
-        if (fds[i].revents == 0) continue;
+    for (std::size_t i = 0; (rc > 0 || buffered) && i < fds.size(); ++i) {
         detail::connection* c = owners[i];
+        if (fds[i].revents == 0 && !(c && c->tls && c->tls->pending())) continue;
         if (c == nullptr) {
             while (true) {  // OA-DELIV-2: any number of connections to the listening port
                 detail::fd_handle fd = detail::accept_tcp(listener.get());
@@ -283,10 +298,10 @@ void client::impl::pump(steady::time_point deadline) {
             continue;
         }
         if (fds[i].revents & POLLOUT) flush(*c);
-        if (fds[i].revents & (POLLIN | POLLHUP | POLLERR)) {
+        if ((fds[i].revents & (POLLIN | POLLHUP | POLLERR)) || (c->tls && c->tls->pending())) {
             char buf[read_size];
             for (int round = 0; round < reads_per_round && !c->dead; ++round) {
-                detail::io_result r = detail::read_some(c->fd.get(), buf, sizeof buf);
+                detail::io_result r = detail::read_some(*c, buf, sizeof buf);
                 if (r.would_block) break;
                 if (r.closed) {
                     handle_data(*c, {});  // end of stream: FRAME_TRUNCATED inside a frame

@@ -23,6 +23,16 @@ namespace openair {
 inline constexpr const char* aircentral = "AIRCentral";
 inline constexpr const char* cns = "CNS";
 
+/// TLS on the connections the client opens to the server (secure mode, OA-AUTH-10).
+struct tls_options {
+    bool enabled = false;
+    /// PEM file of the CA certificates that the server's certificate must chain to; empty: the
+    /// system's trust store.
+    std::string ca_file;
+    /// Require the certificate to name `client_options::host` (a DNS name or an IP address).
+    bool verify_host = true;
+};
+
 /// How a client connects and behaves. Only `name` is required for a module.
 struct client_options {
     std::string host = "127.0.0.1";
@@ -53,6 +63,14 @@ struct client_options {
     frame_limits limits;
     /// The clock used to stamp postedTime, in ns since the epoch; empty means the system clock.
     clock_function clock;
+    /// The module's secret (any bytes) for secure mode (extension `auth`, spec 14.3). When set,
+    /// every connection the client opens proves `name` (AUTH_CHALLENGE, AUTH_RESPONSE with an
+    /// HMAC-SHA256 proof) before it binds or acts, and `connect` throws AUTH_REQUIRED at a
+    /// server that does not advertise `auth` (OA-AUTH-12). Only the proof is ever sent; the
+    /// secret is never sent, printed nor put into an error.
+    std::optional<std::string> secret;
+    /// TLS on every connection to the server; off by default.
+    tls_options tls;
 };
 
 /// Where a delivery arrived (OA-DELIV-1).
@@ -109,7 +127,9 @@ class client {
 public:
     /// Connect, ask GET_CAPABILITIES (UNKNOWN_COMMAND: legacy, OA-CAP-2), bind, listen, open
     /// the callback connection and announce, as configured. Throws CONNECTION_CLOSED when the
-    /// server cannot be reached, REQUEST_FAILED when it refuses the BIND, REQUEST_TIMEOUT.
+    /// server cannot be reached (or its TLS certificate is not trusted), REQUEST_FAILED when it
+    /// refuses the BIND, REQUEST_TIMEOUT; with a `secret`, AUTH_REQUIRED at a server without
+    /// `auth` and AUTH_FAILED when it refuses the proof.
     [[nodiscard]] static client connect(client_options options);
 
     client(client&& other) noexcept;

@@ -107,6 +107,9 @@ public final class BrokenShimMain {
         // Streams: write builtin:timestamp and builtin:seq before the writer's parameters.
         b.put("builtins-first", new Break((cmd, c) -> cmd.equals("stream-add")
                 ? builtinsFirst(c) : c, SAME));
+        // Attachments: the post goes out without the attachments it was given.
+        b.put("attachments-dropped", new Break((cmd, c) -> cmd.startsWith("post")
+                && c.containsKey("attachments") ? without(c, "attachments") : c, SAME));
         // Streams: acknowledge the registration's samples (the library does) but never report them.
         b.put("registration-samples-lost", new Break(SAME, (cmd, a) -> cmd.equals("await-sample")
                 && Boolean.TRUE.equals(a.get("ok"))
@@ -117,7 +120,7 @@ public final class BrokenShimMain {
     /** The stream breaks (listed by {@code --list-streams}, not by {@code --list}). */
     static final List<String> STREAM_BREAKS = List.of("push-no-ack", "wait-timeout-error",
             "push-end-silent", "builtins-first", "registration-samples-lost",
-            "add-sample-no-binarysizes");
+            "add-sample-no-binarysizes", "attachments-dropped");
 
     /** A failure answer in place of {@code answer}. */
     private static Map<String, Object> failure(Map<String, Object> answer, String code,
@@ -157,6 +160,13 @@ public final class BrokenShimMain {
     private static Map<String, Object> withWakeup(Map<String, Object> answer,
             UnaryOperator<Map<String, Object>> rewrite) {
         return with(answer, "wakeup", rewrite.apply(obj(answer.get("wakeup"))));
+    }
+
+    /** A copy of {@code m} without its member {@code key}. */
+    private static Map<String, Object> without(Map<String, Object> m, String key) {
+        Map<String, Object> copy = new LinkedHashMap<>(m);
+        copy.remove(key);
+        return copy;
     }
 
     /** A copy of {@code m} whose member {@code key} is {@code value}, in place or appended. */

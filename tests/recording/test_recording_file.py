@@ -251,3 +251,12 @@ def test_ontology_infer_warns_about_a_cut_recording(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     assert "warning:" in result.output and "truncated" in result.output
     assert "2 types from 2 messages" in result.output
+
+
+def test_recorded_stream_sizes_are_created_in_mib() -> None:
+    # GET_STREAMS reports bytes; <stream maxsize> is in MiB (OA-STREAM-9).
+    from openair.recording.replay import _mib
+
+    assert _mib("10485760") == "10"
+    assert _mib("524288") == "0.5"
+    assert _mib("0") == "" and _mib("") == "" and _mib("x") == ""

@@ -174,6 +174,7 @@ class Replayer:
     async def _create(self, name: str) -> bool:
         spec = next((s for s in self.header.streams if s.get("name") == name), {"name": name})
         attrs = {k: spec.get(k, "") for k in ("name", "whiteboard", "type", "maxsize")}
+        attrs["maxsize"] = _mib(attrs["maxsize"])
         if not attrs["whiteboard"]:
             attrs["whiteboard"] = self.header.whiteboards[0] if self.header.whiteboards else "WB1"
         content = (
@@ -225,3 +226,18 @@ class Replayer:
 
 def _attr(value: str) -> str:
     return value.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;")
+
+
+def _mib(maxsize_bytes: str) -> str:
+    """Turn the byte size GET_STREAMS reported into the MiB units of `<stream maxsize>`.
+
+    GET_STREAMS and `<streaminfo>` give sizes in bytes; run-time creation reads `maxsize` in units
+    of 1 048 576 bytes (OA-STREAM-9), so a recorded 10485760 is created as maxsize="10".
+    """
+    try:
+        size = int(maxsize_bytes)
+    except ValueError:
+        return ""
+    if size <= 0:
+        return ""
+    return f"{size / 1_048_576:.6f}".rstrip("0").rstrip(".")

@@ -50,7 +50,7 @@ from openair_conformance.model import (
     Verdict,
 )
 from openair_conformance.registry import RegisteredCase, all_cases, select_cases
-from openair_conformance.untestable import NOT_CHECKED
+from openair_conformance.untestable import KNOWN_GAPS, NOT_CHECKED
 
 __all__ = [
     "EXIT_CODES",
@@ -525,7 +525,10 @@ def coverage_rows(
 def _unchecked(req_id: str) -> str:
     """Say why no case checks `req_id`: a known reason, or that it is a gap in the suite."""
     reason = NOT_CHECKED.get(req_id)
-    return f"— not testable over TCP: {reason}" if reason else "— NOT CHECKED (a gap in the suite)"
+    if reason:
+        return f"— not testable over TCP: {reason}"
+    gap = KNOWN_GAPS.get(req_id)
+    return f"— NOT CHECKED (known gap: {gap})" if gap else "— NOT CHECKED (a gap in the suite)"
 
 
 @conform.command("coverage")

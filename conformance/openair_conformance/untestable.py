@@ -62,3 +62,24 @@ NOT_CHECKED: dict[str, str] = {
     "OA-AUTH-12": _CLIENT + " (a client never binds with a secret at a server without auth; "
     "tests/client/test_client_auth_tls.py)",
 }
+
+_BUDGET = (
+    "a byte budget of the server (issue #19); no case yet reaches it over TCP, which at the "
+    "defaults takes hundreds of MiB or a thousand connections and needs a server started with "
+    "small budgets; the reference server's is tested by "
+)
+
+#: Requirements a case could check over TCP but none does yet: gaps in the suite, said as such
+#: (`openair conform coverage` prints them as NOT CHECKED with the reason), never hidden.
+KNOWN_GAPS: dict[str, str] = {
+    "OA-LIM-8": _BUDGET + "tests/server_io/test_server_io_budgets.py",
+    "OA-LIM-9": _BUDGET + "tests/server_io/test_server_io_budgets.py",
+    "OA-LIM-10": _BUDGET + "tests/server_io/test_server_io_budgets.py",
+    "OA-LIM-11": _BUDGET + "tests/server_io/test_server_io_budgets.py",
+    "OA-LIM-12": _BUDGET + "tests/server_io/test_server_io_budgets.py",
+    "OA-LIM-13": _BUDGET + "tests/server_io/test_server_io_budgets.py",
+    "OA-LIM-14": _BUDGET + "tests/server_io/test_server_io_budgets.py",
+    "OA-LIM-15": _BUDGET + "tests/server_core/test_server_router_retention.py",
+    "OA-LIM-16": _BUDGET + "tests/streams_core/test_stream_budgets.py",
+    "OA-LIM-17": _BUDGET + "tests/streams_core/test_stream_budgets.py",
+}

@@ -12,15 +12,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from vector_fields import check_fields, first_nested
 
 from openair.catalogue import load_catalogue
-from openair.codec import decode_message, decode_with_lxml, encode_message, message_from_element
+from openair.codec import decode_message, decode_with_lxml, encode_message
 from openair.errors import MessageInvalidError, error_for
 from openair.fastcodec import fast_decode
-from openair.message import Message
-from openair.times import AirTime
 from openair.wakeup import parse_wakeup
-from openair.xmlsafe import parse_fragment
 
 ROOT = Path(__file__).resolve().parents[2]
 VECTORS = ROOT / "spec" / "vectors" / "legacy"
@@ -30,31 +28,6 @@ CASES: list[dict[str, Any]] = MANIFEST["cases"]
 
 def _source(case: dict[str, Any]) -> bytes:
     return (VECTORS / str(case["file"])).read_bytes()
-
-
-def _expected(key: str, value: Any) -> Any:
-    if key in ("posted", "received") and value is not None:
-        return AirTime(sec=value[0], msec=value[1], usec=value[2] if len(value) > 2 else None)
-    return value
-
-
-def _actual(msg: Message, key: str) -> Any:
-    if key == "extras":
-        return [[s.name, s.value, s.is_xml] for s in msg.extras]
-    return getattr(msg, key)
-
-
-def _check_fields(msg: Message, fields: dict[str, Any]) -> None:
-    for key, value in fields.items():
-        assert _actual(msg, key) == _expected(key, value), key
-
-
-def _first_nested(msg: Message) -> Message:
-    for root in parse_fragment(msg.content):
-        for el in root.iter():
-            if isinstance(el.tag, str) and el.tag.lower() == "message":
-                return message_from_element(el)
-    raise AssertionError("no nested message in the content")
 
 
 def test_manifest_is_well_formed() -> None:
@@ -71,9 +44,9 @@ def test_manifest_is_well_formed() -> None:
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c["name"])
 def test_client_reading_gives_fields(case: dict[str, Any]) -> None:
     msg = decode_message(_source(case), clamp_priority=True)
-    _check_fields(msg, case["expected"]["fields"])
+    check_fields(msg, case["expected"]["fields"])
     if "nested" in case["expected"]:
-        _check_fields(_first_nested(msg), case["expected"]["nested"])
+        check_fields(first_nested(msg), case["expected"]["nested"])
 
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c["name"])
@@ -108,7 +81,7 @@ def test_wakeups_parse_with_their_trigger(case: dict[str, Any]) -> None:
     msg = decode_message(_source(case))  # the wakeup's own envelope has no priority
     wakeup = parse_wakeup(msg)
     assert wakeup.trigger is not None
-    _check_fields(wakeup.trigger, case["expected"]["nested"])
+    check_fields(wakeup.trigger, case["expected"]["nested"])
 
 
 @pytest.mark.parametrize(

@@ -29,10 +29,13 @@ from openair_conformance.harness.conn import ConnectionLost
 from openair_conformance.model import Inconclusive
 
 __all__ = [
+    "ADDRESSES",
+    "COMPONENTS",
     "ERROR_NAMES",
     "LOCAL_ERROR_NAMES",
     "ack",
     "check_error",
+    "cns_request",
     "error_name",
     "esc",
     "frames_until_closed",
@@ -53,6 +56,12 @@ __all__ = [
     "view_of",
 ]
 
+#: The system components every server has besides AIRCentral and the whiteboards (spec 6.2).
+COMPONENTS = ("CNS", "Config", "Psyclone", "AIRServer", "ContextsAndPhases")
+#: Every address a request may be sent to on the main port: `to` empty (CNS), AIRCentral, the
+#: example whiteboards and the system components.
+ADDRESSES = ("", "AIRCentral", "WB1", "WB2", *COMPONENTS)
+
 #: The condition names of the error table (spec 13.1); only these may travel (OA-ERR-1).
 ERROR_NAMES: frozenset[str] = frozenset(code.name for code in ErrorCode)
 #: Conditions whose blame is local: never sent on the wire (OA-ERR-7).
@@ -63,6 +72,13 @@ LOCAL_ERROR_NAMES = frozenset(
 _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False)
 _ESCAPES = {"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;"}
 _ESCAPES.update({"\t": "&#9;", "\n": "&#10;", "\r": "&#13;"})
+
+
+def cns_request(
+    ctx: CaseContext, type: str, to: str = "CNS", content: str = "", sfx: str = "S"
+) -> Message:
+    """A request of `type` from a fresh name of the case (suffix `sfx`) to `to`."""
+    return Message(type=type, sender=ctx.name(sfx), to=to, content=content)
 
 
 def esc(text: str) -> str:

@@ -1,8 +1,8 @@
 """Conformance cases at the boundaries the examples never touch (issue #15).
 
 Slots rare on the wire compared in full on every copy the server hands out (OA-WB-4), letter
-case in ids (OA-RET-3), fractional priorities in a queue of dozens (section 10), and the
-session commands every component must answer, not only CNS (OA-SESS-10, OA-KEEP-2).
+case in ids (OA-RET-3) and fractional priorities in a queue of dozens (section 10). The
+session commands every component must answer (SESS-043) are in session_status.py.
 """
 
 from __future__ import annotations
@@ -21,15 +21,13 @@ from openair_conformance.cases._common import (
 )
 from openair_conformance.cases.priorities import _plugged
 from openair_conformance.harness import CaseContext
-from openair_conformance.harness.checks import attributes, content_object, message_collection
+from openair_conformance.harness.checks import message_collection
 from openair_conformance.registry import case
 
 #: 2100-01-01T00:00:00.123Z: a postedTime far ahead of any server's clock (OA-TIME-4,
 #: OA-RET-5). Ahead, not behind: a whiteboard that never lets receivedTime go back (OA-WB-12)
 #: would hide a receivedTime taken from a postedTime in the past.
 _FAR_POSTED = AirTime(sec=4_102_444_800, msec=123)
-#: Components every server has besides the whiteboards (spec 6.2).
-_COMPONENTS = ("", "CNS", "AIRCentral", "WB1", "WB2", "Config", "Psyclone", "AIRServer")
 
 
 def _rare(ctx: CaseContext, sender: str) -> Message:
@@ -188,37 +186,3 @@ async def deep_fractional_order(ctx: CaseContext) -> None:
     got = [names.get(await hand.take(), -1) for _ in levels]
     want = sorted(range(len(levels)), key=lambda n: (2.0 if levels[n] is None else levels[n], n))
     ctx.check(got == want, f"deliveries in the order {got}", expected=f"{want} (OA-PRIO-1)")
-
-
-@case(
-    id="SESS-043",
-    title="KEEPALIVE and PING are answered by every component: whiteboards, CNS, streams",
-    section="6.7",
-    requirements=("OA-KEEP-2", "OA-SESS-10", "OA-SESS-1"),
-    allowed=("KEEPALIVESUCCESS / PING_SUCCESS with isresponse = the request's id, from each",),
-)
-async def every_component_answers(ctx: CaseContext) -> None:
-    """Send KEEPALIVE and PING to each component by `to`, and to the stream on its port.
-
-    Catches: a component other than CNS that stores a KEEPALIVE as a post, refuses it, or
-    answers it RECEIVE_ACCEPT (OA-KEEP-2 says every responder answers it).
-    """
-    raw = await ctx.raw()
-    targets: list[tuple[str, str]] = [(to, "") for to in _COMPONENTS]
-    resolve = Message(type="RESOLVE_REQUEST", sender=ctx.name("S"), to="CNS", content=ctx.stream)
-    resolved = await raw.request(resolve)
-    if resolved.type == "RESOLVE_SUCCESS":
-        ctx.resolved(ctx.stream, attributes(content_object(resolved, "tcplocation")))
-        targets.append((ctx.stream, ctx.stream))
-    else:
-        ctx.note(f"no stream {ctx.stream}: {resolved.type}; the streams are not asked")
-    for to, component in targets:
-        conn = await ctx.raw(f"to{to or 'empty'}", component=component) if component else raw
-        for kind, answer in (("KEEPALIVE", "KEEPALIVESUCCESS"), ("PING", "PING_SUCCESS")):
-            sent = await conn.send_message(Message(type=kind, sender=ctx.name("S"), to=to))
-            reply = await conn.read_message()
-            ctx.check(
-                reply.type == answer and reply.isresponse == sent.id,
-                f"{kind} to {to!r} was answered {reply.type} (isresponse {reply.isresponse!r})",
-                expected=f"{answer} for the {kind} (OA-KEEP-2, OA-SESS-10, OA-SESS-1)",
-            )

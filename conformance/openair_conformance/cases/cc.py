@@ -9,8 +9,16 @@ from __future__ import annotations
 
 import asyncio
 
-from openair_conformance.cases._common import setup_subscribe, trigger_ids, triggers_xml
+from openair_conformance.cases._common import (
+    setup_subscribe,
+    trigger_ids,
+    triggers_xml,
+)
 from openair_conformance.harness import CaseContext, TestModule
+from openair_conformance.harness.checks import (
+    WakeupUnreadable,
+    wakeup_view,
+)
 from openair_conformance.registry import case
 
 
@@ -116,3 +124,52 @@ async def cc_self(ctx: CaseContext) -> None:
         "not woken exactly once",
         expected="OA-CC-4",
     )
+
+
+# -- 8.5 cc: a wakeup due only to cc -----------------------------------------------------------
+
+
+async def _cc_wakeup(ctx: CaseContext, *, registered: bool) -> None:
+    target = await ctx.module("Cc")
+    if registered:
+        other = ctx.type("Other.*")
+        await target.subscribe(
+            f'<triggers><trigger from="WB1" type="{other}"/></triggers>', check=True
+        )
+    poster = await ctx.module("Poster", bind=False)
+    await poster.post("WB1", ctx.type("Note"), "for your eyes", cc=target.name)
+    assert poster.last_sent is not None
+    wakeup = await target.expect_wakeup_for(poster.last_sent.id)
+    try:
+        view = wakeup_view(wakeup)
+    except WakeupUnreadable as exc:
+        ctx.fail(f"wakeup content: {exc}", expected="an <objectdictionary> (OA-WAKE-1)")
+    ctx.check(
+        view.phase_attr("lasttrigger") == "",
+        f"lasttrigger of a wakeup due only to cc is {view.phase_attr('lasttrigger')!r}",
+        expected="lasttrigger present and empty (OA-WAKE-4)",
+    )
+
+
+@case(
+    id="CC-001",
+    title="cc wakes a registered module whose triggers do not match, with an empty lasttrigger",
+    section="8.5",
+    requirements=("OA-CC-2", "OA-WAKE-4"),
+    allowed=("one wakeup whose PhaseSpec has lasttrigger=''",),
+)
+async def cc_wakes_registered(ctx: CaseContext) -> None:
+    """Register a trigger that cannot match, then post another type with cc naming the module."""
+    await _cc_wakeup(ctx, registered=True)
+
+
+@case(
+    id="CC-002",
+    title="cc wakes a bound module that never registered",
+    section="8.5",
+    requirements=("OA-CC-2",),
+    allowed=("one wakeup whose PhaseSpec has lasttrigger=''",),
+)
+async def cc_wakes_unregistered(ctx: CaseContext) -> None:
+    """Bind a module without AIR.Subscribe and post with cc naming it (Psyclone: DEV-12)."""
+    await _cc_wakeup(ctx, registered=False)

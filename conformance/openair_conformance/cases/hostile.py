@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import struct
 
+from openair.framing import Frame, FrameTag
 from openair.message import Message
 from openair_conformance.cases._common import (
     ERROR_NAMES,
@@ -274,4 +275,42 @@ async def table_names(ctx: CaseContext) -> None:
         not unknown,
         f"condition names {names}",
         expected="names of the error table, blame not local (OA-ERR-1, OA-ERR-7)",
+    )
+
+
+# -- 13.2 Error replies: malformed XML ---------------------------------------------------------
+
+
+@case(
+    id="HOST-001",
+    title="Malformed XML in a correct frame gets RECEIVE_ERROR and the connection stays usable",
+    section="13.2",
+    requirements=("OA-ERR-3", "OA-MSG-1", "OA-ERR-2"),
+    allowed=(
+        "RECEIVE_ERROR whose content starts with XML_MALFORMED, isresponse empty or the id",
+        "then PING on the same connection is answered PING_SUCCESS",
+    ),
+)
+async def malformed_xml(ctx: CaseContext) -> None:
+    """Frame an unterminated `<message>`, expect RECEIVE_ERROR, then PING the same connection."""
+    raw = await ctx.raw()
+    bad = f"<message><type>{ctx.type('Bad')}</type><to>WB1</to".encode()
+    await raw.send_frame(Frame(tag=FrameTag.MESSAGE, xml=bad))
+    reply = await raw.read_message()
+    ctx.check(
+        reply.type == "RECEIVE_ERROR",
+        f"malformed XML was answered {reply.type} {reply.content!r}",
+        expected="RECEIVE_ERROR (OA-ERR-3, OA-MSG-1)",
+    )
+    ctx.check(
+        reply.content.strip().startswith("XML_MALFORMED"),
+        f"RECEIVE_ERROR content is {reply.content!r}",
+        expected="'XML_MALFORMED: detail' (OA-ERR-2)",
+    )
+    sent = await raw.send_message(Message(type="PING", sender=ctx.name("H"), to="CNS"))
+    after = await raw.read_message()
+    ctx.check(
+        after.type == "PING_SUCCESS" and after.isresponse == sent.id,
+        f"PING after the error was answered {after.type} (isresponse {after.isresponse!r})",
+        expected="PING_SUCCESS: the connection stays usable (OA-ERR-3)",
     )

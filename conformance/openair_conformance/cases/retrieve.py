@@ -20,6 +20,10 @@ from openair_conformance.cases._common import (
     send_big,
 )
 from openair_conformance.harness import CaseContext, TestModule
+from openair_conformance.harness.checks import (
+    WakeupUnreadable,
+    message_collection,
+)
 from openair_conformance.model import Inconclusive, NotApplicable
 from openair_conformance.registry import case
 
@@ -448,4 +452,44 @@ async def reply_too_large(ctx: CaseContext) -> None:
         names=("LIMIT_EXCEEDED",),
         what="a retrieve of 120 % of the limit",
         req="OA-RET-15",
+    )
+
+
+# -- 9.3 Results: newest first -----------------------------------------------------------------
+
+
+@case(
+    id="RET-001",
+    title="AIR.Retrieve with latest=0 returns the matching stored copies, newest first",
+    section="9.3",
+    requirements=("OA-RET-1", "OA-RET-4", "OA-RET-6", "OA-RET-7"),
+    allowed=("AIR.Retrieve.Success with exactly the two messages, the later post first",),
+)
+async def retrieve_newest_first(ctx: CaseContext) -> None:
+    """Post Data.1 then Data.2 to WB1; retrieve `<prefix>.Data.*` from WB1 via AIRCentral."""
+    client = await ctx.module("R", bind=False)
+    for n in (1, 2):
+        await client.post("WB1", ctx.type(f"Data.{n}"), f"data {n}")
+    spec = f'<retrieve from="WB1" type="{ctx.type("Data.*")}"><latest>0</latest></retrieve>'
+    reply = await client.retrieve(spec)
+    ctx.check(
+        reply.type == "AIR.Retrieve.Success",
+        f"the retrieve was answered {reply.type} {reply.content!r}",
+        expected="AIR.Retrieve.Success (OA-RET-1, OA-RET-7)",
+    )
+    try:
+        found = message_collection(reply)
+    except WakeupUnreadable as exc:
+        ctx.fail(f"retrieve result: {exc}", expected="an <objectcollection> (OA-RET-7)")
+    types = [m.type for m in found]
+    want = [ctx.type("Data.2"), ctx.type("Data.1")]
+    ctx.check(
+        types == want,
+        f"the retrieve returned {types}",
+        expected=f"{want}: all (latest=0, OA-RET-4), newest first (OA-RET-6)",
+    )
+    ctx.check(
+        all(m.stored == "WB1" and m.wbid is not None for m in found),
+        "a result is not a stored copy (stored/wbid missing)",
+        expected="stored copies (OA-RET-7)",
     )

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 
+from openair.message import Message
 from openair_conformance.cases._common import (
     esc,
     setup_subscribe,
@@ -14,6 +15,10 @@ from openair_conformance.cases._common import (
     view_of,
 )
 from openair_conformance.harness import CaseContext
+from openair_conformance.harness.checks import (
+    WakeupUnreadable,
+    wakeup_view,
+)
 from openair_conformance.registry import case
 
 
@@ -243,4 +248,111 @@ async def contexts(ctx: CaseContext) -> None:
         len(sub.phase_updates) >= 2,
         f"{len(sub.phase_updates)} phase updates",
         expected="one per change (OA-REG-15)",
+    )
+
+
+# -- 8.7 The wakeup, taken apart ---------------------------------------------------------------
+
+
+def _same_time(a: object, b: object) -> bool:
+    return a == b or (
+        getattr(a, "sec", None) == getattr(b, "sec", 0)
+        and getattr(a, "msec", None) == getattr(b, "msec", 0)
+    )
+
+
+def _check_wakeup_envelope(ctx: CaseContext, wakeup: Message, module: str) -> None:
+    ctx.check(
+        wakeup.sender == "WB1" and wakeup.to == module and wakeup.stored == "WB1",
+        f"wakeup from={wakeup.sender!r} to={wakeup.to!r} stored={wakeup.stored!r}",
+        expected=f"from='WB1', to='{module}', stored='WB1' (OA-WAKE-1)",
+    )
+
+
+def _check_trigger_copy(ctx: CaseContext, trigger: Message | None, sent: Message) -> None:
+    if trigger is None:
+        ctx.fail("the wakeup has no readable TriggerMessage", expected="OA-WAKE-2")
+    same = (trigger.id, trigger.type, trigger.sender, trigger.to, trigger.content)
+    want = (sent.id, sent.type, sent.sender, sent.to, sent.content)
+    ctx.check(
+        same == want,
+        f"TriggerMessage (id, type, from, to, content) is {same}",
+        expected=f"the posted message's {want} (OA-WAKE-2, OA-WB-4)",
+    )
+    ctx.check(
+        trigger.stored == "WB1" and trigger.received is not None and trigger.wbid is not None,
+        f"TriggerMessage stored={trigger.stored!r} receivedTime={trigger.received} "
+        f"wbid={trigger.wbid}",
+        expected="stored='WB1', a receivedTime and a wbid (OA-WB-4)",
+    )
+    ctx.check(
+        _same_time(trigger.posted, sent.posted),
+        f"TriggerMessage postedTime {trigger.posted} differs from the posted {sent.posted}",
+        expected="the poster's postedTime, unchanged (OA-WAKE-2)",
+    )
+
+
+@case(
+    id="WAKE-001",
+    title="A matching trigger wakes the subscriber with TriggerMessage, RetrievedMessages and "
+    "PhaseSpec",
+    section="8.7",
+    requirements=(
+        "OA-REG-7",
+        "OA-TRIG-1",
+        "OA-WAKE-1",
+        "OA-WAKE-2",
+        "OA-WAKE-3",
+        "OA-WAKE-4",
+        "OA-DELIV-1",
+        "OA-WB-4",
+    ),
+    allowed=(
+        "delivery over the callback connection or a connection to the module's port",
+        "a phase update (wakeup without TriggerMessage) before the wakeup, which is ignored",
+        "extra <phase> attributes and children (pid, priority, currentcontexts, …)",
+        "netprotocol and comment slots added to the stored copy",
+    ),
+)
+async def trigger_wakes(ctx: CaseContext) -> None:
+    """Subscribe `<prefix>.Ping.*` on WB1, post `<prefix>.Ping.A` from another client, and
+    take the wakeup apart: envelope, object order, the stored copy, an empty collection and
+    lasttrigger = the pattern."""
+    sub = await ctx.module("Sub")
+    poster = await ctx.module("Poster", bind=False)
+    pattern = ctx.type("Ping.*")
+    await sub.subscribe(f'<triggers><trigger from="WB1" type="{pattern}"/></triggers>', check=True)
+    await poster.post("WB1", ctx.type("Ping.A"), "hello wake")
+    assert poster.last_sent is not None
+    sent = poster.last_sent
+    wakeup = await sub.expect_wakeup_for(sent.id)
+    ctx.note(f"the wakeup came over the {sub.delivery_paths[sub.wakeups_seen.index(wakeup)]}")
+    _check_wakeup_envelope(ctx, wakeup, sub.name)
+    try:
+        view = wakeup_view(wakeup)
+    except WakeupUnreadable as exc:
+        ctx.fail(f"wakeup content: {exc}", expected="an <objectdictionary> (OA-WAKE-1)")
+    order = ("TriggerMessage", "RetrievedMessages", "PhaseSpec")
+    ctx.check(
+        view.objects == order,
+        f"wakeup objects are {view.objects}",
+        expected=f"{order}, in that order (OA-WAKE-1)",
+    )
+    _check_trigger_copy(ctx, view.trigger, sent)
+    ctx.check(
+        view.has_collection and not view.retrieved,
+        f"RetrievedMessages holds {len(view.retrieved)} message(s) "
+        f"(objectcollection: {view.has_collection})",
+        expected="an empty <objectcollection> (no retrieves registered, OA-WAKE-3)",
+    )
+    for attr in ("name", "module", "context"):
+        ctx.check(
+            view.phase_attr(attr) is not None,
+            f"<phase> has no {attr} attribute",
+            expected="name, module, context and lasttrigger (OA-WAKE-4)",
+        )
+    ctx.check(
+        view.phase_attr("lasttrigger") == pattern,
+        f"lasttrigger is {view.phase_attr('lasttrigger')!r}",
+        expected=f"the pattern that fired, {pattern!r} (OA-WAKE-4)",
     )

@@ -257,3 +257,30 @@ async def command_types_are_posts(ctx: CaseContext) -> None:
         ctx.check(len(found) == 1, f"{type_} was not stored", expected="OA-WB-2")
     reply = await client.request(Message(type="PING", sender=client.name, to="WB1"))
     ctx.check(reply.type == "PING_SUCCESS", f"PING to WB1: {reply.type}", expected="OA-WB-2")
+
+
+# -- 7.2 Posts and whiteboard commands: the acknowledgement ------------------------------------
+
+
+@case(
+    id="WB-001",
+    title="A post to WB1 from an unbound connection is acknowledged RECEIVE_ACCEPT",
+    section="7.2",
+    requirements=("OA-WB-2", "OA-WB-3", "OA-SESS-16", "OA-SESS-1"),
+    allowed=("RECEIVE_ACCEPT with isresponse = the post's id",),
+)
+async def post_acknowledged(ctx: CaseContext) -> None:
+    """Post to WB1 on the main port without BIND; expect RECEIVE_ACCEPT for that post."""
+    client = await ctx.module("Poster", bind=False)
+    reply = await client.post("WB1", ctx.type("Hello"), "hello whiteboard", check=False)
+    ctx.check(
+        reply.type == "RECEIVE_ACCEPT",
+        f"the post was answered {reply.type} {reply.content!r}",
+        expected="RECEIVE_ACCEPT (OA-WB-2, OA-WB-3, OA-SESS-16)",
+    )
+    assert client.last_sent is not None
+    ctx.check(
+        reply.isresponse == client.last_sent.id,
+        f"RECEIVE_ACCEPT has isresponse {reply.isresponse!r}",
+        expected="isresponse = the post's id (OA-SESS-1)",
+    )

@@ -10,7 +10,7 @@ PORT   ?= 10000
 PYTEST_ARGS ?=
 
 .PHONY: all venv serve test test-python lint typecheck generate check-generated bench fuzz clean deps-browser
-.PHONY: demo-worldmodel mutation
+.PHONY: demo-worldmodel mutation faults
 .PHONY: stress
 
 all: test
@@ -84,10 +84,17 @@ bench: $(STAMP)
 ## part of `make test`; hours on 2 workers; resumable (run it again to continue; sessions and the
 ## coverage map live in build/mutation). Writes test-artifacts/mutation.md.
 ## E.g. make mutation MUTATION_ARGS="--modules whiteboard queues --max-mutants 100"
+## or a seeded sample per module: MUTATION_ARGS="--sample 30 --seed 15 --workers 2".
 MUTATION_ARGS ?= --workers 2
 mutation: $(STAMP)
 	@$(PY) -c "import cosmic_ray, coverage" 2>/dev/null || $(PY) -m pip install --quiet -e '.[mutation]'
 	$(PY) -m tools.mutation $(MUTATION_ARGS)
+
+## The hand-written one-fault variants of tests/faults/independent.toml, each judged like a
+## mutant (issue 15); writes test-artifacts/independent-faults.md. About 10 minutes.
+faults: $(STAMP)
+	@$(PY) -c "import cosmic_ray, coverage" 2>/dev/null || $(PY) -m pip install --quiet -e '.[mutation]'
+	$(PY) -m tools.mutation.faults
 
 ## The attacks of issue #19 against a fresh server: held/degraded/broken, RSS, canary p99 (never
 ## part of `make test`; about two minutes).

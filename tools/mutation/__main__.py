@@ -27,6 +27,13 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m tools.mutation", description=__doc__.split("\n")[0])
     p.add_argument("--modules", nargs="*", default=[], help="groups, file stems or paths")
     p.add_argument("--max-mutants", type=int, default=None, help="judge at most N this run")
+    p.add_argument(
+        "--sample",
+        type=int,
+        default=None,
+        help="judge a seeded random sample of N mutants per module (default: all of them)",
+    )
+    p.add_argument("--seed", default="15", help="the sample's seed (kept in the report)")
     p.add_argument("--workers", type=int, default=1, help="parallel judges, one copy each")
     p.add_argument("--timeout", type=float, default=300.0, help="seconds per mutant (killed)")
     p.add_argument("--timeout-scale", type=float, default=1.0, help="the suite's deadlines")
@@ -57,6 +64,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         timeout=args.timeout,
         max_mutants=args.max_mutants,
         timeout_scale=args.timeout_scale,
+        sample=args.sample,
+        seed=args.seed,
     )
     campaign = Campaign(settings)
     started = time.monotonic()
@@ -78,7 +87,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"Tree {campaign.tree} ({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}); "
         f"cosmic-ray 8 operators; judge = the conformance cases that execute the mutated line "
         f"(coverage control), 4 at a time, timeout scale {args.timeout_scale:g}, "
-        f"mutant timeout {args.timeout:g} s; {ran}.",
+        f"mutant timeout {args.timeout:g} s; {ran}"
+        + (f"; sample {args.sample} per module, seed {args.seed!r}." if args.sample else "."),
     ]
     args.report.parent.mkdir(parents=True, exist_ok=True)
     args.report.write_text(render(records, explanations, header=header), encoding="utf-8")

@@ -47,7 +47,8 @@ from cosmic_ray.work_item import (  # type: ignore[import-untyped,import-not-fou
     WorkResult,
 )
 
-from tools.mutation.report import MutantRecord, record_from
+from tools.mutation.report import RULE_PREFIX, MutantRecord, record_from
+from tools.mutation.rules import IF_SURVIVES, PRE_JUDGE, classify
 from tools.mutation.selection import MutantSite, annotation_spans, in_spans, mutant_keys
 from tools.mutation.snapshot import copy_tree, module_hash, tracked_files, tree_hash
 
@@ -72,6 +73,9 @@ class Settings:
     timeout: float = 300.0
     max_mutants: int | None = None
     timeout_scale: float = 1.0
+    #: Judge at most this many mutants of each module, chosen by `seed` (None: all of them).
+    sample: int | None = None
+    seed: str = "0"
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -96,9 +100,10 @@ def judge_command(copy: Path, map_path: Path, pristine: Path, timeout_scale: flo
     return shlex.join(["env", "-C", str(copy), path, *judge, "--pristine", str(pristine), *scale])
 
 
-def _sample_order(key: str) -> str:
-    """Order pending mutants by a hash of their key: a stable, spread-out sample."""
-    return hashlib.sha1(key.encode("utf-8")).hexdigest()
+def _sample_order(key: str, seed: str = "") -> str:
+    """Order mutants by a hash of the seed and their key: a stable, spread-out sample (a
+    simple random sample without replacement for a given seed)."""
+    return hashlib.sha1(f"{seed}\0{key}".encode()).hexdigest()
 
 
 class Campaign:
@@ -165,8 +170,9 @@ class Campaign:
 
         Mutants inside annotations are equivalent by construction; mutants that do not compile
         (cosmic-ray replaces the keyword-only marker `*` of a parameter list like a
-        multiplication) are not mutants at all. Both get a SKIPPED result, as cosmic-ray's own
-        filters (cr-filter-pragma) record theirs; one judged before this filter is overwritten.
+        multiplication) are not mutants at all; a PRE_JUDGE rule (rules.py) explains others
+        without a run. All get a SKIPPED result, as cosmic-ray's own filters (cr-filter-pragma)
+        record theirs; one judged before this filter is overwritten.
         """
         source = self.source(module)
         spans = annotation_spans(source)
@@ -176,10 +182,13 @@ class Campaign:
             marks: dict[str, list[str]] = {IN_ANNOTATION: [], INVALID: []}
             for item in todo:
                 m = item.mutations[0]
+                hit = classify(source, tuple(m.start_pos), tuple(m.end_pos))
                 if in_spans(spans, m.start_pos, m.end_pos):
                     marks[IN_ANNOTATION].append(item.job_id)
                 elif not _compiles(source, m):
                     marks[INVALID].append(item.job_id)
+                elif hit is not None and hit.when == PRE_JUDGE:
+                    marks.setdefault(RULE_PREFIX + hit.reason, []).append(item.job_id)
             for output, ids in marks.items():
                 if ids:
                     result = WorkResult(worker_outcome=WorkerOutcome.SKIPPED, output=output)
@@ -210,15 +219,28 @@ class Campaign:
         if not session.exists():
             return []
         keys = self.keys(module)
+        source = self.source(module)
         with use_db(str(session), WorkDB.Mode.open) as db:
             results = dict(db.results)
             items = db.work_items
         return [
-            record_from(keys[i.job_id], i, results.get(i.job_id), self.s.timeout) for i in items
+            record_from(
+                keys[i.job_id],
+                i,
+                results.get(i.job_id),
+                self.s.timeout,
+                rule=_survivor_rule(source, i),
+            )
+            for i in items
         ]
 
     def pending(self) -> list[Job]:
-        """Return the pending mutants of every module, in sample order, at most max_mutants."""
+        """Return the pending mutants of every module, in sample order, at most max_mutants.
+
+        With `sample`, each module (a stratum) contributes only the pending ones among the
+        first `sample` of its judgeable mutants (not skipped) in the seed's order, so a rerun
+        with the same seed resumes the same sample and a larger `sample` extends it.
+        """
         jobs: list[Job] = []
         for module in self.s.modules:
             session = self.init_session(module)
@@ -226,8 +248,14 @@ class Campaign:
             keys = self.keys(module)
             with use_db(str(session), WorkDB.Mode.open) as db:
                 pending = db.pending_work_items
+                skipped = {j for j, r in db.results if r.worker_outcome is WorkerOutcome.SKIPPED}
+                items = [i for i in db.work_items if i.job_id not in skipped]
+            if self.s.sample is not None:
+                items.sort(key=lambda i: _sample_order(keys[i.job_id], self.s.seed))
+                chosen = {i.job_id for i in items[: self.s.sample]}
+                pending = [i for i in pending if i.job_id in chosen]
             jobs += [Job(session=session, item=i, key=keys[i.job_id]) for i in pending]
-        jobs.sort(key=lambda j: _sample_order(j.key))
+        jobs.sort(key=lambda j: _sample_order(j.key, self.s.seed))
         return jobs if self.s.max_mutants is None else jobs[: self.s.max_mutants]
 
     def execute(self, jobs: Sequence[Job]) -> None:
@@ -276,6 +304,13 @@ def _compiles(source: str, mutation: Any) -> bool:
         except SyntaxError:
             return False
     return True
+
+
+def _survivor_rule(source: str, item: Any) -> str:
+    """Return the IF_SURVIVES argument for the item's mutation ("" when no rule applies)."""
+    m = item.mutations[0]
+    hit = classify(source, tuple(m.start_pos), tuple(m.end_pos))
+    return hit.reason if hit is not None and hit.when == IF_SURVIVES else ""
 
 
 def _all_group_modules() -> list[str]:

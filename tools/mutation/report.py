@@ -3,13 +3,17 @@
 `MutantRecord`s come from the cosmic-ray sessions (`record_from`) or, in tests, are made by
 hand. Survivors (survived, not-executed) are explained in equivalent.toml under their stable
 key with a one-line reason that starts `equivalent:` or `unobservable over TCP:`; explained
-survivors leave the kill rate's denominator, the others are listed UNEXPLAINED. Timeouts count
-as killed (the mutant hung the server or the suite).
+survivors leave the kill rate's denominator, the others are listed UNEXPLAINED. A survivor
+that a rule of rules.py explains (IF_SURVIVES) is explained by the rule's argument; a mutant a
+PRE_JUDGE rule explains is `by-rule` (not judged, outside the rate). Timeouts count as killed
+(the mutant hung the server or the suite). When a module was judged by sample (some mutants
+not run), its rate is an estimate and the report gives a 95 % Wilson interval for it.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import statistics
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
@@ -21,6 +25,7 @@ from tools.mutation import group_of
 
 __all__ = [
     "REASON_PREFIXES",
+    "RULE_PREFIX",
     "STATUSES",
     "TARGET",
     "ModuleRow",
@@ -37,10 +42,13 @@ STATUSES = (
     "survived",
     "not-executed",
     "skipped",
+    "by-rule",
     "invalid",
     "error",
     "not-run",
 )
+#: The output of a mutant a PRE_JUDGE rule explains (followed by the rule's argument).
+RULE_PREFIX = "rule: "
 SURVIVING = frozenset({"survived", "not-executed"})
 REASON_PREFIXES = ("equivalent:", "unobservable over TCP:")
 #: Issue 15: at least this share of the non-equivalent mutants of every module is killed.
@@ -61,6 +69,7 @@ class MutantRecord:
     cases: int = 0  # cases the judge selected
     diff: str = ""
     seconds: float | None = None
+    rule: str = ""  # a rule's argument: why this mutant is unobservable if it survives
 
     def __post_init__(self) -> None:
         if self.status not in STATUSES:
@@ -87,13 +96,18 @@ def _judge_record(output: str | None) -> dict[str, Any]:
     return record if isinstance(record, dict) else {}
 
 
-def record_from(key: str, item: Any, result: Any, timeout: float) -> MutantRecord:
+def record_from(
+    key: str, item: Any, result: Any, timeout: float, *, rule: str = ""
+) -> MutantRecord:
     """Build a record from a cosmic-ray work item and its result (None: not run yet)."""
     m = item.mutations[0]
     base = {"key": key, "module": str(m.module_path), "line": m.start_pos[0]}
     base["operator"] = m.operator_name
     if result is None:
-        return MutantRecord(**base, status="not-run")
+        return MutantRecord(**base, status="not-run", rule=rule)
+    if (result.output or "").startswith(RULE_PREFIX):
+        reason = result.output[len(RULE_PREFIX) :]
+        return MutantRecord(**base, status="by-rule", rule=reason, diff=result.diff or "")
     test = result.test_outcome.value if result.test_outcome is not None else ""
     judged = _judge_record(result.output)
     seconds: float | None
@@ -117,6 +131,7 @@ def record_from(key: str, item: Any, result: Any, timeout: float) -> MutantRecor
         cases=int(judged.get("cases", 0)),
         diff=result.diff or "",
         seconds=seconds,
+        rule=rule,
     )
 
 
@@ -141,6 +156,21 @@ class ModuleRow:
         caught = self.counts.get("killed", 0) + self.counts.get("timeout", 0)
         return caught / denominator if denominator else None
 
+    @property
+    def sampled(self) -> bool:
+        """Whether some mutants were not run (the rate is then a sample's)."""
+        return self.counts.get("not-run", 0) > 0
+
+    def interval(self, z: float = 1.96) -> tuple[float, float] | None:
+        """The Wilson score interval of the rate (95 % by default); None without a rate."""
+        n = self.judged - self.equivalent
+        if n <= 0:
+            return None
+        p = (self.counts.get("killed", 0) + self.counts.get("timeout", 0)) / n
+        centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+        half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+        return max(0.0, centre - half), min(1.0, centre + half)
+
 
 def module_rows(
     records: Iterable[MutantRecord], explanations: Mapping[str, str]
@@ -153,7 +183,7 @@ def module_rows(
     for module, members in sorted(by_module.items()):
         counts = {s: sum(1 for r in members if r.status == s) for s in STATUSES}
         survivors = [r for r in members if r.status in SURVIVING]
-        explained = sum(1 for r in survivors if r.key in explanations)
+        explained = sum(1 for r in survivors if r.key in explanations or r.rule)
         rows.append(
             ModuleRow(
                 module=module,
@@ -173,20 +203,25 @@ def _percent(rate: float | None) -> str:
 def _table(rows: Sequence[ModuleRow]) -> list[str]:
     head = "| group | module | generated | run | killed | timeout | survived | not executed "
     lines = [
-        head + "| equivalent | unexplained | skipped | invalid | error | not run | kill rate |",
-        "|---" * 15 + "|",
+        head + "| equivalent | unexplained | skipped | by rule | invalid | error | not run "
+        "| kill rate | judged |",
+        "|---" * 17 + "|",
     ]
     for row in rows:
         c = row.counts
         ok = row.rate is not None and row.rate >= TARGET
         flag = "" if ok or row.rate is None else " **below target**"
+        ci = row.interval()
+        how = "full"
+        if row.sampled:
+            how = f"sample of {row.judged}"
+            how += f", 95 % CI {_percent(ci[0])}–{_percent(ci[1])}" if ci else ""
         lines.append(
             f"| {group_of(row.module)} | {row.module} | {row.generated} | {row.judged} "
             f"| {c['killed']} | {c['timeout']} | {c['survived']} | {c['not-executed']} "
-            f"| {row.equivalent} | {row.unexplained} | {c['skipped']} | {c['invalid']} "
-            f"| {c['error']} "
-            f"| {c['not-run']} "
-            f"| {_percent(row.rate)}{flag} |"
+            f"| {row.equivalent} | {row.unexplained} | {c['skipped']} | {c['by-rule']} "
+            f"| {c['invalid']} | {c['error']} | {c['not-run']} "
+            f"| {_percent(row.rate)}{flag} | {how} |"
         )
     return lines
 
@@ -202,7 +237,7 @@ def _survivors(records: Sequence[MutantRecord], explanations: Mapping[str, str])
     for r in sorted(records, key=lambda r: (r.module, r.line, r.key)):
         if r.status not in SURVIVING:
             continue
-        reason = explanations.get(r.key, "**UNEXPLAINED**")
+        reason = explanations.get(r.key) or (f"(rule) {r.rule}" if r.rule else "**UNEXPLAINED**")
         how = "no case executes this line" if r.status == "not-executed" else f"{r.cases} cases"
         lines += [f"- `{r.key}` {r.module}:{r.line} {r.operator} ({how}): {reason}", ""]
         hunks = _hunks(r.diff).splitlines()
@@ -220,6 +255,16 @@ def _timing(records: Sequence[MutantRecord]) -> str:
         f"{statistics.fmean(times):.1f} s, median {statistics.median(times):.1f} s, "
         f"max {max(times):.1f} s over {len(times)} mutants."
     )
+
+
+def _by_rule(records: Sequence[MutantRecord]) -> list[str]:
+    counts: dict[tuple[str, str], int] = {}
+    for r in records:
+        if r.status == "by-rule":
+            counts[(r.module, r.rule)] = counts.get((r.module, r.rule), 0) + 1
+    return [f"- {module}: {n} × {rule}" for (module, rule), n in sorted(counts.items())] or [
+        "(none)"
+    ]
 
 
 def render(
@@ -245,7 +290,13 @@ def render(
         "module killed. Kill rate = (killed + timeout) / (judged − explained survivors). "
         "Skipped: mutants inside annotations, never evaluated (`from __future__ import "
         "annotations`), so equivalent by construction and not judged. Invalid: the mutated "
-        "module does not compile (cosmic-ray mutates the keyword-only marker `*`); not judged.",
+        "module does not compile (cosmic-ray mutates the keyword-only marker `*`); not judged. "
+        "By rule: unobservable by construction (tools/mutation/rules.py: dataclass `slots`, "
+        "`kw_only` where the field order allows it, `__all__`, docstrings), explained and not "
+        "judged; a survivor marked `(rule)` is explained by a rule that needs the judge's "
+        "evidence (dataclass `frozen`/`repr`, log-call arguments). Judged `sample of n`: the "
+        "module was judged on a seeded random sample of its judgeable mutants (a stratum per "
+        "module); its rate is the sample's, with a 95 % Wilson interval.",
         "",
         _timing(records),
         "",
@@ -254,6 +305,10 @@ def render(
         "## Survivors",
         "",
         *_survivors(records, explanations),
+        "",
+        "## Explained by rule without a run",
+        "",
+        *_by_rule(records),
         "",
         "## Explanations that match no surviving mutant (stale, or not run)",
         "",

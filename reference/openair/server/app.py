@@ -42,7 +42,7 @@ from openair.server.internal import InternalModules, start_internal
 from openair.server.protocol import FlowLimits, Role, ServerConnection
 from openair.server.pusher import Pusher
 from openair.server.router import ModuleInfo, Outcome, Router, SamplePush
-from openair.server.store import HistoryStore, open_store
+from openair.server.store import HistoryStore, SequencedStore, open_store
 
 __all__ = [
     "DEFAULT_EXTENSIONS",
@@ -401,6 +401,7 @@ class Server:
         self.port = int(self._listener.sockets[0].getsockname()[1])
         quiet_accept_errors(loop, time.monotonic)  # EMFILE: one line per interval, no traceback
         address = "127.0.0.1" if self.host in _WILDCARD_HOSTS else self.host
+        self._join_cluster(loop)
         self.router = Router(
             self.config,
             self.store,
@@ -431,6 +432,28 @@ class Server:
             ",".join(self.whiteboards),
             ",".join(sorted(self.extensions)),
         )
+
+    def _join_cluster(self, loop: asyncio.AbstractEventLoop) -> None:
+        """A cluster node's store (spec 17) joins before the whiteboards load from it."""
+        store = self.store
+        if not isinstance(store, SequencedStore):
+            for wb in self.config.whiteboards:
+                if wb.host:  # OA-CLU-6: a lone server hosts a placed whiteboard itself
+                    log.warning("event=placement_ignored whiteboard=%s host=%s", wb.name, wb.host)
+            return
+
+        def notify() -> None:  # called on the cluster client's thread
+            loop.call_soon_threadsafe(self._adopt_stored)
+
+        store.connect(self.config, notify)
+
+    def _adopt_stored(self) -> None:
+        """Route the posts other cluster nodes stored to this node's modules (OA-CLU-4)."""
+        store = self.store
+        if isinstance(store, SequencedStore):
+            store.notified()
+        if not self._final and hasattr(self, "router"):
+            self._apply(self.router.adopt_stored(time.time_ns()), 0)
 
     @property
     def whiteboards(self) -> tuple[str, ...]:

@@ -8,6 +8,7 @@ import gc
 import logging
 import os
 import signal
+import socket
 import ssl
 import sys
 import threading
@@ -94,6 +95,17 @@ def _force_exit(signum: int, why: str) -> None:
     os._exit(EXIT_FORCED_BASE + signum)
 
 
+def _cluster_store(store: str, cluster: str | None, node: str | None) -> str:
+    """The store spec: `cluster:NODE@URLS` for a cluster node (spec 17), else --store."""
+    if cluster is None:
+        if node is not None:
+            raise click.UsageError("--node needs --cluster")
+        return store
+    if store != "memory":
+        raise click.UsageError("--cluster keeps the whiteboards in JetStream: no --store")
+    return f"cluster:{node or socket.gethostname()}@{cluster}"
+
+
 async def _run(options: ServerOptions) -> None:
     """Start, announce readiness on stdout, and stop on SIGINT or SIGTERM."""
     server = await start_server(options)
@@ -167,6 +179,14 @@ def _monitor_line(server: Server) -> str:
     show_default=True,
     help="Whiteboard history: 'memory', or 'sqlite:PATH' (durable).",
 )
+@click.option(
+    "--cluster",
+    metavar="nats://HOST:PORT[,...]",
+    default=None,
+    help="Be a node of a cluster whose whiteboards live in NATS JetStream (spec 17); "
+    "needs the extra cluster. Not with --store.",
+)
+@click.option("--node", default=None, help="This node's name in the cluster (default: host name).")
 @click.option(
     "--log-level",
     default="info",
@@ -255,6 +275,8 @@ def serve(
     port: int | None,
     config_path: str | None,
     store: str,
+    cluster: str | None,
+    node: str | None,
     log_level: str,
     http_port: int | None,
     monitor_post: bool,
@@ -298,7 +320,7 @@ def serve(
         host=host,
         port=port,
         config_path=config_path,
-        store=store,
+        store=_cluster_store(store, cluster, node),
         monitor=not no_monitor,
         http_port=http_port,
         monitor_post=monitor_post,

@@ -143,6 +143,10 @@ class WhiteboardConfig:
     maxcount: int = DEFAULT_MAXCOUNT
     priority: float = DEFAULT_WB_PRIORITY
     streams: tuple[StreamConfig, ...] = ()
+    # Placement in a cluster (spec 17, OA-CLU-6): the node (placement tag) that holds it, from
+    # `host` or Psyclone's `remote`; and how many nodes keep a copy. Ignored by a lone server.
+    host: str = ""
+    replicas: int = 1
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -307,6 +311,8 @@ def _whiteboard(el: etree._Element) -> WhiteboardConfig:
         maxcount=int(el.get("maxcount", DEFAULT_MAXCOUNT)),
         priority=float(el.get("priority", DEFAULT_WB_PRIORITY)),
         streams=streams,
+        host=el.get("host") or el.get("remote") or "",
+        replicas=int(el.get("replicas", "1")),
     )
 
 

@@ -438,6 +438,7 @@ class Router:
         if kind == "AIR.Subscribe":
             return self._subscribe(board, msg, now_ns)
         if kind in (RETRIEVE, RETRIEVES):
+            caught_up = self._adopted(board, board.sync(), now_ns)  # OA-CLU-3
             answer = answer_retrieve(
                 msg,
                 board,
@@ -446,7 +447,7 @@ class Router:
                 max_xml=self.limits.max_frame_xml,
                 max_binary=self.limits.max_frame_binary,  # OA-RET-15, OA-RET-19
             )
-            return Outcome(replies=(answer,))
+            return Outcome(replies=(answer,), deliveries=caught_up)
         if kind == "PING" or kind == "KEEPALIVE":
             return self._session_reply(msg, board.name, now_ns)
         return self._post(board, msg, received_ns, now_ns)
@@ -465,9 +466,21 @@ class Router:
         if over is not None:  # OA-LIM-14: refused before it is stored, so never acknowledged
             return Outcome(replies=(self._error(msg, over, board.name, now_ns),))
         try:
+            if msg.noreply and self._noreply and board.sequenced:
+                board.post_later(msg, received_ns)  # OA-CLU-5: routed when it comes back
+                return Outcome()
             stored = board.store_post(msg, received_ns)  # OA-TIME-3, OA-WB-4, OA-WB-5
         except StoreFailedError as err:  # OA-WB-3: not stored, so not acknowledged
             return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
+        deliveries = self._adopted(board, board.adopted, now_ns)  # OA-CLU-4: earlier posts
+        deliveries += self._stored(board, stored, now_ns)
+        if msg.noreply and self._noreply:  # OA-MSG-15, OA-WB-8: handle() would drop the ack
+            return Outcome(deliveries=deliveries)
+        ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=board.name, now_ns=now_ns)  # OA-WB-3
+        return Outcome(replies=(ack,), deliveries=deliveries)
+
+    def _stored(self, board: Whiteboard, stored: Message, now_ns: int) -> tuple[Delivery, ...]:
+        """Decide the wakeups of one stored copy and show it to the observer."""
         if self._contexts is not None and (
             stored.type == PHASE_CHANGE or stored.type.startswith("Psyclone.Context:")
         ):  # OA-REG-18: the change comes first, then the post's own wakeups
@@ -476,10 +489,26 @@ class Router:
             deliveries = self._decide(board, stored, now_ns)
         if self.observer is not None:
             self.observer(board.name, stored, deliveries)
-        if msg.noreply and self._noreply:  # OA-MSG-15, OA-WB-8: handle() would drop the ack
-            return Outcome(deliveries=deliveries)
-        ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=board.name, now_ns=now_ns)  # OA-WB-3
-        return Outcome(replies=(ack,), deliveries=deliveries)
+        return deliveries
+
+    def _adopted(
+        self, board: Whiteboard, copies: list[Message], now_ns: int
+    ) -> tuple[Delivery, ...]:
+        """Decide the wakeups of copies other servers of a cluster stored (OA-CLU-4)."""
+        if not copies:
+            return ()
+        board.adopted = []
+        deliveries: tuple[Delivery, ...] = ()
+        for stored in copies:
+            deliveries += self._stored(board, stored, now_ns)
+        return deliveries
+
+    def adopt_stored(self, now_ns: int) -> Outcome:
+        """Take the posts other servers of a cluster stored, with their wakeups (OA-CLU-4)."""
+        deliveries: tuple[Delivery, ...] = ()
+        for board in self._whiteboards.values():
+            deliveries += self._adopted(board, board.adopt(), now_ns)
+        return Outcome(deliveries=deliveries) if deliveries else Outcome()
 
     def _over_budget(self, board: Whiteboard, msg: Message) -> LimitExceededError | None:
         """Refuse a post that would take the bytes held past `max-held-bytes` (OA-LIM-14).
@@ -630,7 +659,8 @@ class Router:
             self._lost_notices += 1  # a name that makes no valid type, or a failing store
             return ()
         board.received += 1
-        deliveries = self._decide(board, stored, now_ns)
+        deliveries = self._adopted(board, board.adopted, now_ns)  # OA-CLU-4
+        deliveries += self._decide(board, stored, now_ns)
         if self.observer is not None:
             self.observer(board.name, stored, deliveries)
         return deliveries

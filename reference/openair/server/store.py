@@ -14,14 +14,25 @@ from __future__ import annotations
 
 import sqlite3
 from collections import deque
+from collections.abc import Callable
 from pathlib import Path
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from openair.codec import decode_message, to_frame
 from openair.framing import binary_sizes
 from openair.message import Message
 
-__all__ = ["HistoryStore", "MemoryStore", "SqliteStore", "StoreSpecError", "open_store"]
+if TYPE_CHECKING:
+    from openair.server.config import ServerConfig
+
+__all__ = [
+    "HistoryStore",
+    "MemoryStore",
+    "SequencedStore",
+    "SqliteStore",
+    "StoreSpecError",
+    "open_store",
+]
 
 
 @runtime_checkable
@@ -44,6 +55,41 @@ class HistoryStore(Protocol):
 
     def close(self) -> None:
         """Release the store; later calls are errors."""
+        ...
+
+
+@runtime_checkable
+class SequencedStore(HistoryStore, Protocol):
+    """A store that numbers the posts itself, shared by several servers (a cluster, spec 17).
+
+    `publish` stores one copy and returns the wbid the store gave it (durable, and replicated,
+    on return: OA-CLU-2); `take` hands over, in wbid order, the copies of `whiteboard` that
+    other servers stored and this one has not adopted yet (up to `through` when given);
+    `sync` waits until every copy stored before the call can be taken (OA-CLU-3).
+    """
+
+    def publish(self, whiteboard: str, msg: Message) -> int:
+        """Store one copy (its wbid is ignored) and return the wbid it was stored under."""
+        ...
+
+    def publish_later(self, whiteboard: str, msg: Message) -> None:
+        """Store one copy without waiting: it comes back through `take` (a noreply post)."""
+        ...
+
+    def take(self, whiteboard: str, through: int | None = None) -> list[Message]:
+        """Return the copies stored since the last take, oldest first, their wbid set."""
+        ...
+
+    def sync(self, whiteboard: str) -> None:
+        """Wait until every copy of `whiteboard` stored so far can be taken."""
+        ...
+
+    def connect(self, config: ServerConfig, notify: Callable[[], None] | None = None) -> None:
+        """Join the shared store; `notify` (from any thread) says copies can be taken."""
+        ...
+
+    def notified(self) -> None:
+        """The server took the notice: the next copies that arrive notify again."""
         ...
 
 
@@ -199,6 +245,12 @@ def open_store(spec: str) -> HistoryStore:
     kind, sep, path = spec.partition(":")
     if kind == "sqlite" and sep and path:
         return _open_sqlite(Path(path))
+    if kind == "cluster" and sep and path:  # `cluster:NODE@nats://HOST:PORT[,...]` (spec 17)
+        from openair.cluster import open_cluster_store  # optional: nats-py is an extra
+
+        store = open_cluster_store(path)
+        assert isinstance(store, SequencedStore)
+        return store
     raise StoreSpecError(f"unknown store {spec!r}: use 'memory' or 'sqlite:PATH'")
 
 

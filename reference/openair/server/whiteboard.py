@@ -10,6 +10,7 @@ the oldest go first, as with maxcount; the newest copy is always kept.
 
 from __future__ import annotations
 
+import contextlib
 from collections import deque
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -23,7 +24,7 @@ from openair.message import Message
 from openair.server.commands import ms_time
 from openair.server.config import DEFAULT_MAXCOUNT, DEFAULT_WB_PRIORITY, WhiteboardConfig
 from openair.server.queues import item_bytes
-from openair.server.store import HistoryStore
+from openair.server.store import HistoryStore, SequencedStore
 
 __all__ = ["Whiteboard", "content_glob", "derive", "text_bytes", "text_of", "xml_text_of"]
 
@@ -109,6 +110,11 @@ class Whiteboard:
         self.evicted = 0
         self.evict_errors = 0
         self._store = store
+        # A cluster's store numbers the posts (spec 17): wbid is the stream's sequence.
+        self._sequenced = store if isinstance(store, SequencedStore) else None
+        #: Copies other servers stored, adopted by the last store_post or adopt(): the router
+        #: decides their wakeups (OA-CLU-4) before those of the post that adopted them.
+        self.adopted: list[Message] = []
         self._messages: deque[Message] = deque()
         self._next_wbid = 1  # OA-WB-5: starts at 1
         self._last_ns = 0
@@ -174,12 +180,83 @@ class Whiteboard:
             received=ms_time(self.stamp(received_ns)),  # OA-TIME-3
             wbid=self._next_wbid,
         )
+        if self._sequenced is not None:
+            return self._store_sequenced(self._sequenced, copy)
         if self._store is not None:
             try:
                 self._store.append(self.name, copy)  # OA-WB-3, OA-WB-9: durable before the ack
             except Exception as exc:
                 raise StoreFailedError(f"{self.name}: {exc}") from exc
         self._next_wbid += 1
+        self._messages.append(copy)
+        self.bytes += item_bytes(copy, None)
+        self.stored += 1
+        if len(self._messages) > self.maxcount or (self.max_bytes and self.bytes > self.max_bytes):
+            self._evict()
+        return copy
+
+    def _store_sequenced(self, store: SequencedStore, copy: Message) -> Message:
+        """Store a post in a cluster's store (OA-CLU-2): the store's wbid, in the store's order.
+
+        Copies other servers stored before it are adopted first (into `adopted`), so that every
+        server holds the whiteboard in one wbid order (OA-CLU-1).
+        """
+        try:
+            wbid = store.publish(self.name, copy)  # OA-WB-3, OA-CLU-2: stored and replicated
+        except Exception as exc:
+            raise StoreFailedError(f"{self.name}: {exc}") from exc
+        earlier = store.take(self.name, wbid)
+        self.adopted = [kept for kept in map(self._adopt, earlier) if kept is not None]
+        own = self._adopt(derive(copy, wbid=wbid))
+        return own if own is not None else derive(copy, wbid=wbid)
+
+    @property
+    def sequenced(self) -> bool:
+        """Whether a cluster's store numbers the posts (spec 17)."""
+        return self._sequenced is not None
+
+    def post_later(self, msg: Message, received_ns: int) -> None:
+        """Send a noreply post to the cluster's store without waiting (OA-CLU-5).
+
+        It is adopted, and its wakeups decided, when it comes back from the store in order.
+        """
+        assert self._sequenced is not None
+        copy = derive(msg, stored=self.name, received=ms_time(self.stamp(received_ns)))
+        try:
+            self._sequenced.publish_later(self.name, copy)
+        except Exception as exc:
+            raise StoreFailedError(f"{self.name}: {exc}") from exc
+
+    def adopt(self) -> list[Message]:
+        """Adopt the copies other servers stored since the last call (OA-CLU-4); return them."""
+        if self._sequenced is None:
+            return []
+        return [kept for kept in map(self._adopt, self._sequenced.take(self.name)) if kept]
+
+    def sync(self) -> list[Message]:
+        """Adopt every copy stored anywhere before this call (OA-CLU-3); return them."""
+        if self._sequenced is None:
+            return []
+        # The store unreachable: answer from what this server holds.
+        with contextlib.suppress(Exception):
+            self._sequenced.sync(self.name)
+        return self.adopt()
+
+    def _adopt(self, copy: Message) -> Message | None:
+        """Keep a copy stored under its own wbid, after every copy held (OA-CLU-1).
+
+        A wbid already held (a repeat) is skipped. The receipt time never falls with the wbid
+        (OA-WB-12): a copy stamped earlier than the newest held takes the newest's time.
+        """
+        wbid = copy.wbid or 0
+        if wbid < self._next_wbid:
+            return None
+        received = copy.received
+        if received is not None and received.ms < self._last_ns // _NS_PER_MS:
+            copy = derive(copy, received=ms_time(self._last_ns))
+        elif received is not None:
+            self._last_ns = max(self._last_ns, received.ms * _NS_PER_MS)
+        self._next_wbid = wbid + 1
         self._messages.append(copy)
         self.bytes += item_bytes(copy, None)
         self.stored += 1

@@ -1,0 +1,425 @@
+"""Whiteboards in NATS JetStream: the store of a cluster node (spec 17, issue #22).
+
+Each whiteboard is one JetStream stream (`OAWB_<hex of the name>`, subject
+`openair.wb.<hex>`): its message limit is the whiteboard's maxcount (discard oldest), its
+sequence is the wbid (OA-CLU-1), its replicas and placement tag come from the psySpec
+(OA-CLU-6). A post is published and the server answers RECEIVE_ACCEPT only after JetStream's
+acknowledgement, which JetStream gives once the message is stored on a majority of the replicas
+(OA-CLU-2).
+
+Every node reads every whiteboard's stream in order with an ordered push consumer and buffers
+the copies; the server adopts them into its own whiteboards (its read model for retrieve and
+the wakeups of the modules connected to it, OA-CLU-4). The NATS client runs on a thread of its
+own with its own event loop; the server's loop waits for it (`publish`, `sync`) for at most
+`timeout_s`, so a node cut off from the cluster answers STORE_FAILED instead of hanging.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import logging
+import struct
+import threading
+from collections import deque
+from collections.abc import Callable, Coroutine
+from dataclasses import dataclass, field
+from functools import partial
+from typing import TYPE_CHECKING, Any, TypeVar
+
+from openair.codec import decode_message, to_frame
+from openair.fastcodec import derived
+from openair.framing import binary_sizes
+from openair.message import Message
+from openair.server.store import StoreSpecError
+
+if TYPE_CHECKING:
+    from openair.server.config import ServerConfig, WhiteboardConfig
+
+__all__ = ["ClusterSpec", "ClusterStore", "decode_copy", "encode_copy", "parse_spec", "subject"]
+
+log = logging.getLogger("openair.cluster")
+_T = TypeVar("_T")
+_LEN = struct.Struct(">I")
+_PREFIX = "openair.wb."
+
+
+@dataclass(frozen=True, slots=True)
+class ClusterSpec:
+    """Which cluster to join: the node's name and the NATS servers to try, in order."""
+
+    node: str
+    urls: tuple[str, ...]
+    timeout_s: float = 5.0
+
+
+def parse_spec(spec: str) -> ClusterSpec:
+    """Read `NODE@nats://HOST:PORT[,nats://…]` (the `cluster:` store of `openair serve`)."""
+    node, sep, rest = spec.rpartition("@")
+    urls = tuple(u.strip() for u in (rest if sep else spec).split(",") if u.strip())
+    if not urls or any(not u.startswith(("nats://", "tls://")) for u in urls):
+        raise StoreSpecError(f"bad cluster address {spec!r}: give nats://HOST:PORT[,...]")
+    return ClusterSpec(node=node or "node", urls=urls)
+
+
+def stream_name(whiteboard: str) -> str:
+    """The JetStream stream of a whiteboard (any name: hex keeps it a valid stream name)."""
+    return "OAWB_" + whiteboard.encode().hex()
+
+
+def subject(whiteboard: str) -> str:
+    """The subject posts to `whiteboard` are published on."""
+    return _PREFIX + whiteboard.encode().hex()
+
+
+def encode_copy(msg: Message) -> bytes:
+    """One stored copy as a JetStream payload: XML length, canonical XML, binary chunks."""
+    frame = to_frame(msg)
+    return b"".join((_LEN.pack(len(frame.xml)), frame.xml, *frame.chunks))
+
+
+def decode_copy(payload: bytes, wbid: int) -> Message | None:
+    """Decode a payload written by `encode_copy`, its wbid set; None when it does not decode."""
+    try:
+        (size,) = _LEN.unpack_from(payload)
+        xml = payload[4 : 4 + size]
+        binary = payload[4 + size :]
+        chunks: list[bytes] = []
+        pos = 0
+        for n in binary_sizes(xml):
+            chunks.append(binary[pos : pos + n])
+            pos += n
+        if pos != len(binary):
+            return None
+        return derived(decode_message(xml, tuple(chunks)), wbid=wbid)
+    except Exception:  # a payload another program published on our subject: skip it
+        return None
+
+
+async def _cancel_all() -> None:
+    """Cancel every other task of the client's loop (the client's own helpers) and wait."""
+    tasks = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
+    for task in tasks:
+        task.cancel()
+    await asyncio.gather(*tasks, return_exceptions=True)
+
+
+def _expire(ack: asyncio.Future[Any]) -> None:
+    if not ack.done():
+        ack.cancel()
+
+
+@dataclass(slots=True)
+class _Board:
+    """What the consumer of one whiteboard's stream has received and not yet handed over."""
+
+    name: str
+    pending: deque[Message] = field(default_factory=deque)
+    through: int = 0  # the highest stream sequence received
+    skipped: int = 0  # payloads that did not decode
+
+
+class ClusterStore:
+    """A `SequencedStore` on NATS JetStream (spec 17); `connect` before use."""
+
+    durable = True
+
+    def __init__(self, spec: ClusterSpec) -> None:
+        self.spec = spec
+        self.timeout_s = spec.timeout_s
+        self._boards: dict[str, _Board] = {}
+        self._cond = threading.Condition()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._nc: Any = None
+        self._js: Any = None
+        self._notify: Callable[[], None] | None = None
+        self._scheduled = False
+        self._outbox: deque[tuple[str, bytes, concurrent.futures.Future[int] | None]] = deque()
+        self._inflight = 0  # publishes queued or sent, not settled yet
+        self._flushing = False
+        self._tasks: set[asyncio.Task[None]] = set()
+        self.published = 0
+        self.failed = 0  # noreply posts JetStream did not store
+        self.late = 0  # acknowledged posts not seen back in time (adopted without the earlier)
+
+    def __repr__(self) -> str:
+        return f"ClusterStore(node={self.spec.node!r}, urls={','.join(self.spec.urls)!r})"
+
+    # -- life cycle ----------------------------------------------------------------------------
+
+    def connect(self, config: ServerConfig, notify: Callable[[], None] | None = None) -> None:
+        """Join the cluster, create the whiteboards' streams and start reading them.
+
+        `notify` is called (from the client's thread) when copies arrive; it must hand over
+        to the server's loop (`call_soon_threadsafe`). Raises StoreSpecError when the cluster
+        cannot be reached or a stream cannot be created.
+        """
+        loop = asyncio.new_event_loop()
+        self._loop = loop
+        self._thread = threading.Thread(
+            target=loop.run_forever, name=f"openair-cluster-{self.spec.node}", daemon=True
+        )
+        self._thread.start()
+        self._notify = notify
+        try:
+            self._call(self._connect(config), self.timeout_s * 4)
+        except Exception as exc:
+            self.close()
+            urls = ",".join(self.spec.urls)
+            raise StoreSpecError(f"cannot join the cluster {urls}: {exc!r}") from None
+
+    async def _connect(self, config: ServerConfig) -> None:
+        import nats
+        from nats.js.api import DeliverPolicy
+
+        self._nc = await nats.connect(
+            servers=list(self.spec.urls),
+            name=f"openair-{self.spec.node}",
+            connect_timeout=self.timeout_s,
+            max_reconnect_attempts=-1,
+            reconnect_time_wait=0.25,
+            allow_reconnect=True,
+        )
+        self._js = self._nc.jetstream(timeout=self.timeout_s)
+        for wb in config.whiteboards:
+            await self._ensure_stream(wb)
+            board = self._boards[wb.name] = _Board(wb.name)
+            await self._js.subscribe(
+                subject(wb.name),
+                stream=stream_name(wb.name),
+                ordered_consumer=True,
+                deliver_policy=DeliverPolicy.ALL,
+                cb=self._receiver(board),
+                pending_msgs_limit=-1,
+                pending_bytes_limit=-1,
+            )
+
+    async def _ensure_stream(self, wb: WhiteboardConfig) -> None:
+        """Create the whiteboard's stream, or bring its limits in line with the psySpec."""
+        from nats.js.api import DiscardPolicy, Placement, StorageType, StreamConfig
+        from nats.js.errors import NotFoundError
+
+        wanted = StreamConfig(
+            name=stream_name(wb.name),
+            description=f"OpenAIR whiteboard {wb.name}",
+            subjects=[subject(wb.name)],
+            max_msgs=wb.maxcount,  # OA-WB-6 on the stream: the oldest go
+            discard=DiscardPolicy.OLD,
+            storage=StorageType.FILE,
+            num_replicas=wb.replicas,  # OA-CLU-6
+            placement=Placement(tags=[wb.host]) if wb.host else None,
+            duplicate_window=120.0,
+        )
+        try:
+            await self._js.stream_info(wanted.name)
+        except NotFoundError:
+            await self._js.add_stream(wanted)
+            log.info("event=stream_created whiteboard=%s replicas=%d", wb.name, wb.replicas)
+            return
+        await self._js.update_stream(wanted)
+
+    def _receiver(self, board: _Board) -> Callable[[Any], Coroutine[Any, Any, None]]:
+        async def received(msg: Any) -> None:
+            seq = int(msg.metadata.sequence.stream)
+            copy = decode_copy(msg.data, seq)
+            with self._cond:
+                if copy is None:
+                    board.skipped += 1
+                else:
+                    board.pending.append(copy)
+                board.through = max(board.through, seq)
+                self._cond.notify_all()
+                schedule = not self._scheduled and self._notify is not None
+                self._scheduled = True
+            if schedule and self._notify is not None:
+                self._notify()
+
+        return received
+
+    def notified(self) -> None:
+        """The server took the notice: the next arrival notifies again."""
+        with self._cond:
+            self._scheduled = False
+
+    def close(self) -> None:
+        loop, self._loop = self._loop, None
+        if loop is None:
+            return
+        if self._nc is not None and loop.is_running():
+            try:
+                asyncio.run_coroutine_threadsafe(self._nc.close(), loop).result(2.0)
+            except Exception as exc:  # closing a client cut off from the cluster
+                log.warning("event=cluster_close_error detail=%r", str(exc))
+        try:
+            asyncio.run_coroutine_threadsafe(_cancel_all(), loop).result(2.0)
+        except Exception as exc:  # a task that will not end: the thread is a daemon
+            log.warning("event=cluster_close_error detail=%r", str(exc))
+        loop.call_soon_threadsafe(loop.stop)
+        if self._thread is not None:
+            self._thread.join(2.0)
+
+    # -- HistoryStore ----------------------------------------------------------------------------
+
+    def load(self, whiteboard: str) -> list[Message]:
+        """Everything the whiteboard's stream holds now, oldest first (OA-WB-9)."""
+        self.sync(whiteboard)
+        return self.take(whiteboard)
+
+    def append(self, whiteboard: str, msg: Message) -> None:
+        self.publish(whiteboard, msg)
+
+    def evict(self, whiteboard: str, through_wbid: int) -> None:
+        """Nothing to do: the stream's message limit discards the oldest (OA-WB-6)."""
+
+    # -- SequencedStore --------------------------------------------------------------------------
+
+    def publish(self, whiteboard: str, msg: Message) -> int:
+        """Publish one copy; return its stream sequence once JetStream acknowledged it."""
+        done: concurrent.futures.Future[int] = concurrent.futures.Future()
+        self._enqueue(whiteboard, msg, done)
+        seq = done.result(self.timeout_s + 1.0)
+        self.published += 1
+        # Every earlier copy must be here to be adopted first (OA-CLU-1); the post's own copy
+        # need not come back: the whiteboard adopts it from `msg`, and skips the echo.
+        if not self._wait_through(whiteboard, seq - 1, self.timeout_s):
+            self.late += 1
+            log.warning("event=cluster_late whiteboard=%s wbid=%d", whiteboard, seq)
+        return seq
+
+    def publish_later(self, whiteboard: str, msg: Message) -> None:
+        """Publish one copy without waiting (a noreply post, OA-CLU-5).
+
+        The copy comes back from the stream like another node's, in wbid order; a copy that
+        JetStream refuses is counted (`failed`), as a noreply post that fails is not answered.
+        """
+        self._enqueue(whiteboard, msg, None)
+
+    def _enqueue(
+        self, whiteboard: str, msg: Message, done: concurrent.futures.Future[int] | None
+    ) -> None:
+        """Queue a publish; one task on the client's loop sends them in order (one wbid order)."""
+        loop = self._loop
+        if loop is None:
+            raise RuntimeError("the cluster store is closed")
+        item = (whiteboard, encode_copy(derived(msg, wbid=None)), done)
+        with self._cond:
+            self._outbox.append(item)
+            self._inflight += 1
+            wake = not self._flushing
+            self._flushing = True
+        if wake:
+            loop.call_soon_threadsafe(self._flush_soon)
+
+    def _flush_soon(self) -> None:
+        task = asyncio.get_running_loop().create_task(self._flush())
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _flush(self) -> None:
+        """Send what the outbox holds, in order; each ack settles its item (client thread)."""
+        loop = asyncio.get_running_loop()
+        while True:
+            with self._cond:
+                if not self._outbox:
+                    self._flushing = False
+                    return
+                whiteboard, payload, done = self._outbox.popleft()
+            try:
+                ack = await self._js.publish_async(
+                    subject(whiteboard), payload, stream=stream_name(whiteboard)
+                )
+            except Exception as exc:
+                self._settle(done, None, exc)
+                continue
+            timer = loop.call_later(self.timeout_s, _expire, ack)
+            ack.add_done_callback(partial(self._acked, done, timer))
+
+    def _acked(
+        self,
+        done: concurrent.futures.Future[int] | None,
+        timer: asyncio.TimerHandle,
+        ack: asyncio.Future[Any],
+    ) -> None:
+        timer.cancel()
+        if ack.cancelled():
+            self._settle(done, None, TimeoutError("no acknowledgement from the cluster in time"))
+        elif ack.exception() is not None:
+            self._settle(done, None, ack.exception())
+        else:
+            self._settle(done, int(ack.result().seq), None)
+
+    def _settle(
+        self,
+        done: concurrent.futures.Future[int] | None,
+        seq: int | None,
+        exc: BaseException | None,
+    ) -> None:
+        with self._cond:
+            self._inflight -= 1
+            if exc is not None and done is None:
+                self.failed += 1
+            self._cond.notify_all()
+        if exc is not None:
+            log.warning("event=cluster_publish_failed detail=%r", str(exc))
+        if done is None or done.done():
+            return
+        if exc is not None:
+            done.set_exception(exc)
+        else:
+            assert seq is not None
+            done.set_result(seq)
+
+    def take(self, whiteboard: str, through: int | None = None) -> list[Message]:
+        board = self._boards.get(whiteboard)
+        if board is None:
+            return []
+        with self._cond:
+            pending = board.pending
+            if through is None:
+                taken = list(pending)
+                pending.clear()
+                return taken
+            taken = []
+            while pending and (pending[0].wbid or 0) < through:
+                taken.append(pending.popleft())
+            if pending and pending[0].wbid == through:
+                pending.popleft()  # the caller's own copy: it adopts its own
+            return taken
+
+    def sync(self, whiteboard: str) -> None:
+        """Wait until the consumer has received the stream's last message (OA-CLU-3)."""
+        with self._cond:  # this node's own posts first: every one sent is settled
+            self._cond.wait_for(lambda: self._inflight == 0, self.timeout_s)
+        info = self._call(self._js.stream_info(stream_name(whiteboard)), self.timeout_s + 1.0)
+        last = int(info.state.last_seq or 0)
+        if last and not self._wait_through(whiteboard, last, self.timeout_s):
+            raise TimeoutError(f"{whiteboard}: the stream was not read up to {last} in time")
+
+    # -- helpers ---------------------------------------------------------------------------------
+
+    def _wait_through(self, whiteboard: str, seq: int, timeout_s: float) -> bool:
+        board = self._boards[whiteboard]
+        with self._cond:
+            return self._cond.wait_for(lambda: board.through >= seq, timeout_s)
+
+    def _call(self, coro: Coroutine[Any, Any, _T], timeout_s: float) -> _T:
+        loop = self._loop
+        if loop is None:
+            coro.close()
+            raise RuntimeError("the cluster store is closed")
+        return asyncio.run_coroutine_threadsafe(coro, loop).result(timeout_s)
+
+    def counters(self) -> dict[str, object]:
+        """What STATUS can show of the node's store."""
+        with self._cond:
+            pending = sum(len(b.pending) for b in self._boards.values())
+            skipped = sum(b.skipped for b in self._boards.values())
+        return {
+            "node": self.spec.node,
+            "published": self.published,
+            "failed": self.failed,
+            "late": self.late,
+            "pending": pending,
+            "skipped": skipped,
+        }

@@ -65,25 +65,24 @@ async def _peak_rss(pid: int, peak: list[float], stop: asyncio.Event) -> None:
 
 
 async def _one(
-    name: str, attack: Attack, budget: int, proc: subprocess.Popen[str], port: int
+    name: str, attack: Attack, budget: int, proc: subprocess.Popen[str], canary: Canary
 ) -> bool:
-    canary = Canary(port)
-    canary.start()
-    await asyncio.sleep(QUIET_S)
-    quiet = canary.take()
+    await asyncio.sleep(QUIET_S)  # the canary alone: the quiet series of this attack
+    began = time.monotonic()
+    quiet = canary.before(began - QUIET_S, began)
     base = _rss_mib(proc.pid)
     peak, stop = [base], asyncio.Event()
     sampler = asyncio.create_task(_peak_rss(proc.pid, peak, stop))
-    began = time.monotonic()
     try:
-        figures: Figures = await asyncio.wait_for(attack(port), 300.0)
+        figures: Figures = await asyncio.wait_for(attack(canary.port), 300.0)
     except Exception as exc:  # an attack that fails is reported, the others still run
         figures = Figures(held=False, notes={"error": repr(exc)[:120]})
-    took = time.monotonic() - began
+    ended = time.monotonic()
+    took = ended - began
     stop.set()
     await sampler
-    loud = canary.take()
-    canary.stop()
+    await asyncio.to_thread(canary.settle, ended)  # PINGs the attack held up are answered
+    loud = canary.during(began, ended)
     alive = proc.poll() is None
     ratio = p99(loud) / p99(quiet) if quiet and loud else float("inf")
     grew = peak[0] - base
@@ -108,6 +107,8 @@ async def _main(filters: Sequence[str]) -> int:
     print(f"load average at start: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     print(f"server budgets: {' '.join(BUDGETS)}")
     proc, port = _start()
+    canary = Canary(port)
+    canary.start()
     ok = True
     try:
         for name, item, attack, budget in chosen:
@@ -115,8 +116,9 @@ async def _main(filters: Sequence[str]) -> int:
                 print(f"broken    {name:26} (item {item}) the server is gone")
                 ok = False
                 continue
-            ok &= await _one(f"{name} (#{item})", attack, budget, proc, port)
+            ok &= await _one(f"{name} (#{item})", attack, budget, proc, canary)
     finally:
+        canary.stop()
         proc.terminate()
         try:
             proc.wait(20)

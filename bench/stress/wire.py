@@ -5,6 +5,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import socket
+import subprocess
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -76,47 +78,87 @@ def p99(values: list[float]) -> float:
 
 @dataclass(slots=True)
 class Canary:
-    """A client in its own thread that PINGs every `period_s` and records round trips (ms).
+    """A client in a process of its own that PINGs every `period_s` and records round trips.
 
-    A PING that gets no answer within the socket timeout counts as one `timeouts`.
+    Its own process (not a thread of the attacking process): the attacks encode and decode
+    frames of megabytes, and a thread sharing their interpreter lock would time the attacker's
+    work as the server's. Each sample is `(began, ms)`, `began` on the monotonic clock that
+    every process of the machine shares, so `between` picks the PINGs sent in a time window
+    however late their lines arrive. A PING that gets no answer within the socket timeout
+    counts as one of `timeouts`.
     """
 
     port: int
     period_s: float = 0.02
-    samples: list[float] = field(default_factory=list)
+    samples: list[tuple[float, float]] = field(default_factory=list)
     timeouts: int = 0
-    _stop: threading.Event = field(default_factory=threading.Event)
+    _proc: subprocess.Popen[str] | None = None
     _thread: threading.Thread | None = None
 
     def start(self) -> None:
-        self._thread = threading.Thread(target=self._run, daemon=True)
+        cmd = [sys.executable, "-m", "bench.stress.wire", str(self.port), str(self.period_s)]
+        self._proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True)
+        self._thread = threading.Thread(target=self._collect, daemon=True)
         self._thread.start()
 
-    def take(self) -> list[float]:
-        """Return the samples so far and start a new series."""
-        taken, self.samples = self.samples, []
-        return taken
+    def before(self, began: float, ended: float) -> list[float]:
+        """Return the round trips (ms) of the PINGs sent and answered from `began` to `ended`."""
+        return [ms for at, ms in list(self.samples) if at >= began and at + ms / 1000 < ended]
+
+    def during(self, began: float, ended: float) -> list[float]:
+        """Return the round trips (ms) of the PINGs in flight at any time from `began` to `ended`.
+
+        A PING sent before `began` that the attack held up counts, and so does one sent before
+        `ended` and answered after it: `settle` waits for those answers first.
+        """
+        return [ms for at, ms in list(self.samples) if at < ended and at + ms / 1000 >= began]
+
+    def settle(self, ended: float, limit_s: float = 60.0) -> None:
+        """Wait until a PING sent after `ended` was answered (at most `limit_s`)."""
+        give_up = time.monotonic() + limit_s
+        while time.monotonic() < give_up:
+            if self.samples and self.samples[-1][0] >= ended:
+                return
+            time.sleep(0.02)
 
     def stop(self) -> None:
-        self._stop.set()
+        if self._proc is not None:
+            self._proc.terminate()
+            self._proc.wait(10.0)
         if self._thread is not None:
             self._thread.join(10.0)
 
-    def _run(self) -> None:
-        with socket.create_connection(("127.0.0.1", self.port), timeout=10.0) as sock:
-            ping = frame_of(Message(type="PING", to="CNS", sender="Canary"))
-            reader = FrameReader()
-            while not self._stop.is_set():
-                began = time.perf_counter()
-                sock.sendall(ping)
-                try:
-                    while reader.next_frame() is None:
-                        data = sock.recv(1 << 16)
-                        if not data:
-                            return
-                        reader.feed(data)
-                except TimeoutError:
-                    self.timeouts += 1
-                    continue
-                self.samples.append((time.perf_counter() - began) * 1000)
-                self._stop.wait(self.period_s)
+    def _collect(self) -> None:
+        assert self._proc is not None and self._proc.stdout is not None
+        for line in self._proc.stdout:
+            if line.startswith("timeout"):
+                self.timeouts += 1
+            elif line.strip():
+                at, ms = line.split()
+                self.samples.append((float(at), float(ms)))
+
+
+def ping_forever(port: int, period_s: float) -> None:
+    """The canary process: PING the server, print `began ms` per answer, until killed."""
+    with socket.create_connection(("127.0.0.1", port), timeout=10.0) as sock:
+        ping = frame_of(Message(type="PING", to="CNS", sender="Canary"))
+        reader = FrameReader()
+        while True:
+            began = time.monotonic()
+            sock.sendall(ping)
+            try:
+                while reader.next_frame() is None:
+                    data = sock.recv(1 << 16)
+                    if not data:
+                        return
+                    reader.feed(data)
+            except TimeoutError:
+                print("timeout", flush=True)
+                continue
+            print(f"{began:.6f} {(time.monotonic() - began) * 1000:.3f}", flush=True)
+            time.sleep(period_s)
+
+
+if __name__ == "__main__":
+    with contextlib.suppress(KeyboardInterrupt, BrokenPipeError):
+        ping_forever(int(sys.argv[1]), float(sys.argv[2]))

@@ -32,7 +32,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-from openair.codec import from_frame, to_frame
+from openair.codec import decode_with_lxml, from_frame, to_frame
 from openair.errors import (
     ApiMisuseError,
     ConnectionClosedError,
@@ -62,7 +62,9 @@ _ANSWERS = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
 _SEPARATE_CHUNKS = 64 * 1024
 #: Requests with at least this much XML are decoded on a worker thread, and the connection waits
 #: for them: one client's 16 MiB post must not hold every other client for its parse (issue #19).
-OFF_LOOP_XML = 1 << 20
+#: They take the lxml path, which lets go of the interpreter lock while it parses; the regular
+#: expressions of the fast path hold it (12 ms per MiB), which would stall the loop all the same.
+OFF_LOOP_XML = 256 * 1024
 _HTTP_METHODS = (b"GET ", b"HEAD ", b"POST ", b"PUT ", b"OPTIONS ", b"DELETE ")
 
 
@@ -356,7 +358,9 @@ class ServerConnection(asyncio.Protocol):
         """Decode a large request on a worker thread; later frames wait for it (OA-SESS-2)."""
         self._decoding = max(len(frame.xml), 1)
         loop = asyncio.get_running_loop()
-        future = loop.run_in_executor(None, from_frame, frame, self._xml_limits)
+        future = loop.run_in_executor(
+            None, decode_with_lxml, frame.xml, frame.chunks, self._xml_limits
+        )
         future.add_done_callback(lambda done: self._decoded(done, frame, received_ns))
 
     def _decoded(self, done: asyncio.Future[Message], frame: Frame, received_ns: int) -> None:

@@ -158,3 +158,29 @@ def test_independent_faults_apply_once_compile_and_cite_real_requirements() -> N
         assert set(fault.requirements) <= known, fault.id
     with pytest.raises(ValueError, match="occurs 0 times"):
         apply(dataclasses.replace(faults[0], old="no such text anywhere"), "x = 1\n")
+
+
+def test_explanations_by_mutant_line_or_function() -> None:
+    from tools.mutation.report import explain
+    from tools.mutation.rules import enclosing_function
+
+    assert enclosing_function(SOURCE, 26) == "f"
+    assert enclosing_function(SOURCE, 14) == ""  # a class body, no function
+    base = MutantRecord(
+        key="m.py:abc:core/X:0",
+        module="m.py",
+        line=3,
+        operator="core/X",
+        status="survived",
+        function="C.g",
+        line_key="m.py:abc",
+    )
+    assert explain(base, {}) == ""
+    assert explain(base, {"m.py:def:C.g": "equivalent: f"}) == "equivalent: f"
+    assert explain(base, {"m.py:abc": "equivalent: l", "m.py:def:C.g": "x"}) == "equivalent: l"
+    assert explain(base, {"m.py:abc:core/X:0": "equivalent: k", "m.py:abc": "x"}) == (
+        "equivalent: k"
+    )
+    other = dataclasses.replace(base, function="C.h", line_key="m.py:def")
+    text = render([base, other], {"m.py:def:C.g": "equivalent: f", "m.py:def:Gone": "x"})
+    assert "- `m.py:def:Gone`" in text and "- `m.py:def:C.g`" not in text  # stale listed

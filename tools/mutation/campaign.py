@@ -48,7 +48,7 @@ from cosmic_ray.work_item import (  # type: ignore[import-untyped,import-not-fou
 )
 
 from tools.mutation.report import RULE_PREFIX, MutantRecord, record_from
-from tools.mutation.rules import IF_SURVIVES, PRE_JUDGE, classify
+from tools.mutation.rules import IF_SURVIVES, PRE_JUDGE, classify, enclosing_function
 from tools.mutation.selection import MutantSite, annotation_spans, in_spans, mutant_keys
 from tools.mutation.snapshot import copy_tree, module_hash, tracked_files, tree_hash
 
@@ -230,6 +230,7 @@ class Campaign:
                 results.get(i.job_id),
                 self.s.timeout,
                 rule=_survivor_rule(source, i),
+                function=enclosing_function(source, i.mutations[0].start_pos[0]),
             )
             for i in items
         ]

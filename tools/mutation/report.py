@@ -30,6 +30,7 @@ __all__ = [
     "TARGET",
     "ModuleRow",
     "MutantRecord",
+    "explain",
     "load_explanations",
     "module_rows",
     "record_from",
@@ -70,6 +71,8 @@ class MutantRecord:
     diff: str = ""
     seconds: float | None = None
     rule: str = ""  # a rule's argument: why this mutant is unobservable if it survives
+    function: str = ""  # the qualified name of the innermost function around the line
+    line_key: str = ""  # `module:linehash`: every mutant of that line
 
     def __post_init__(self) -> None:
         if self.status not in STATUSES:
@@ -77,7 +80,12 @@ class MutantRecord:
 
 
 def load_explanations(path: Path) -> dict[str, str]:
-    """Read equivalent.toml (`[mutants]`: key = reason). ValueError for a malformed reason."""
+    """Read equivalent.toml (`[mutants]`: key = reason). ValueError for a malformed reason.
+
+    A key is a mutant's key, `module:linehash` (every mutant of that line) or
+    `module:def:Qualified.name` (every mutant inside that function); `explain` looks them up
+    in that order.
+    """
     if not path.exists():
         return {}
     table = tomllib.loads(path.read_text(encoding="utf-8")).get("mutants", {})
@@ -85,6 +93,18 @@ def load_explanations(path: Path) -> dict[str, str]:
         if not isinstance(reason, str) or not reason.startswith(REASON_PREFIXES) or "\n" in reason:
             raise ValueError(f"{path}: {key}: a reason is one line starting {REASON_PREFIXES}")
     return dict(table)
+
+
+def explain(record: MutantRecord, explanations: Mapping[str, str]) -> str:
+    """Return why a surviving mutant is equivalent or unobservable ("" when nothing says)."""
+    for key in (
+        record.key,
+        record.line_key,
+        f"{record.module}:def:{record.function}" if record.function else "",
+    ):
+        if key and key in explanations:
+            return explanations[key]
+    return f"(rule) {record.rule}" if record.rule else ""
 
 
 def _judge_record(output: str | None) -> dict[str, Any]:
@@ -97,12 +117,13 @@ def _judge_record(output: str | None) -> dict[str, Any]:
 
 
 def record_from(
-    key: str, item: Any, result: Any, timeout: float, *, rule: str = ""
+    key: str, item: Any, result: Any, timeout: float, *, rule: str = "", function: str = ""
 ) -> MutantRecord:
     """Build a record from a cosmic-ray work item and its result (None: not run yet)."""
     m = item.mutations[0]
     base = {"key": key, "module": str(m.module_path), "line": m.start_pos[0]}
-    base["operator"] = m.operator_name
+    base |= {"operator": m.operator_name, "function": function}
+    base["line_key"] = ":".join(key.split(":")[:2])
     if result is None:
         return MutantRecord(**base, status="not-run", rule=rule)
     if (result.output or "").startswith(RULE_PREFIX):
@@ -183,7 +204,7 @@ def module_rows(
     for module, members in sorted(by_module.items()):
         counts = {s: sum(1 for r in members if r.status == s) for s in STATUSES}
         survivors = [r for r in members if r.status in SURVIVING]
-        explained = sum(1 for r in survivors if r.key in explanations or r.rule)
+        explained = sum(1 for r in survivors if explain(r, explanations))
         rows.append(
             ModuleRow(
                 module=module,
@@ -237,7 +258,7 @@ def _survivors(records: Sequence[MutantRecord], explanations: Mapping[str, str])
     for r in sorted(records, key=lambda r: (r.module, r.line, r.key)):
         if r.status not in SURVIVING:
             continue
-        reason = explanations.get(r.key) or (f"(rule) {r.rule}" if r.rule else "**UNEXPLAINED**")
+        reason = explain(r, explanations) or "**UNEXPLAINED**"
         how = "no case executes this line" if r.status == "not-executed" else f"{r.cases} cases"
         lines += [f"- `{r.key}` {r.module}:{r.line} {r.operator} ({how}): {reason}", ""]
         hunks = _hunks(r.diff).splitlines()
@@ -275,12 +296,12 @@ def render(
 ) -> str:
     """Return the Markdown report."""
     rows = module_rows(records, explanations)
-    known = {r.key for r in records}
-    stale = sorted(
-        k
-        for k in explanations
-        if k not in known or any(r.key == k and r.status not in SURVIVING for r in records)
-    )
+    used: set[str] = set()
+    for r in records:
+        if r.status in SURVIVING:
+            fn_key = f"{r.module}:def:{r.function}"
+            used.update(k for k in (r.key, r.line_key, fn_key) if k in explanations)
+    stale = sorted(k for k in explanations if k not in used)
     lines = [
         "# Mutation testing of the reference server, judged by the suite",
         "",

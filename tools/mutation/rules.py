@@ -25,7 +25,7 @@ import functools
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-__all__ = ["IF_SURVIVES", "PRE_JUDGE", "RuleHit", "classify"]
+__all__ = ["IF_SURVIVES", "PRE_JUDGE", "RuleHit", "classify", "enclosing_function"]
 
 PRE_JUDGE = "pre-judge"
 IF_SURVIVES = "if-survives"
@@ -179,3 +179,23 @@ def classify(source: str, start: Pos, end: Pos) -> RuleHit | None:
         for hit in hits(tree, start, end):
             return hit
     return None
+
+
+def enclosing_function(source: str, line: int) -> str:
+    """Return the qualified name (`Class.method`) of the innermost function around `line`
+    ("" at module level); explanations may name a whole function (report.explain)."""
+    best = ""
+
+    def visit(node: ast.AST, prefix: str) -> None:
+        nonlocal best
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+                name = f"{prefix}{child.name}"
+                first = min([child.lineno, *(d.lineno for d in child.decorator_list)])
+                if first <= line <= (child.end_lineno or child.lineno):
+                    if not isinstance(child, ast.ClassDef):
+                        best = name
+                    visit(child, name + ".")
+
+    visit(_parse(source), "")
+    return best

@@ -302,13 +302,18 @@ def test_a_large_request_is_decoded_off_the_loop_and_answered_in_order(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     threads: list[str] = []
-    original = protocol_module.from_frame
+    original, original_lxml = protocol_module.from_frame, protocol_module.decode_with_lxml
 
     def recording(frame: Any, limits: Any) -> Message:
         threads.append(threading.current_thread().name)
         return original(frame, limits)
 
+    def recording_lxml(xml: bytes, chunks: Any, limits: Any) -> Message:
+        threads.append(threading.current_thread().name)  # off the loop: lxml lets the lock go
+        return original_lxml(xml, chunks, limits)
+
     monkeypatch.setattr(protocol_module, "from_frame", recording)
+    monkeypatch.setattr(protocol_module, "decode_with_lxml", recording_lxml)
 
     async def body() -> None:
         server = await serving()

@@ -225,6 +225,8 @@ class Server:
         outcome = self.router.handle(
             conn_id, msg, tag=FrameTag.MESSAGE, received_ns=received_ns, now_ns=received_ns
         )
+        if outcome.later is not None:  # the caller reads the reply now
+            outcome = replace(outcome, replies=(outcome.later()[0],), later=None)
         self._apply(outcome, conn_id)
         return outcome
 
@@ -415,6 +417,7 @@ class Server:
         )
         self.router.status_extra = self._status_counters
         self.router.queued_bytes = self.dispatcher.queued_bytes  # OA-LIM-14
+        self.router.defer_large_replies = True  # written on a worker thread (issue #19)
         self._apply(self.router.start(time.time_ns()), 0)  # OA-SESS-31: System.Ready
         self.internal = start_internal(self)  # OA-CONF-8; ConfigError refuses the start
         if "typed-streams" in self.extensions:

@@ -377,6 +377,12 @@ class ServerConnection(asyncio.Protocol):
             return
         else:
             self._route(frame, done.result(), received_ns)
+        self._resume()
+
+    def _resume(self) -> None:
+        """Take the frames behind a request decoded or answered off the loop again (OA-SESS-2)."""
+        if self._decoding:
+            return  # that request's reply is being written off the loop in turn
         if self._eof:
             self._process(time.time_ns())  # what the peer sent before its end, then close
             self.close()
@@ -387,6 +393,28 @@ class ServerConnection(asyncio.Protocol):
                 self.transport.resume_reading()
         self._process(time.time_ns())
 
+    def _reply_off_loop(self, later: Callable[[], tuple[Message, bytes | None]]) -> None:
+        """Write a large reply on a worker thread; later requests wait for it (OA-SESS-2).
+
+        A retrieve of thousands of messages takes a second to write (issue #19, item 6).
+        """
+        self._decoding = 1
+        future = asyncio.get_running_loop().run_in_executor(None, later)
+        future.add_done_callback(self._replied)
+
+    def _replied(self, done: asyncio.Future[tuple[Message, bytes | None]]) -> None:
+        self._decoding = 0
+        if self._closing:
+            return
+        exc = done.exception()
+        if exc is not None:
+            log.warning("event=reply_failed conn=%d detail=%r", self.conn_id, str(exc))
+            self.abort()
+            return
+        reply, wire = done.result()
+        self._send(reply, wire=wire)
+        self._resume()
+
     def _route(self, frame: Frame, msg: Message, received_ns: int) -> None:
         """Hand a decoded request to the router and act on its outcome (OA-SESS-2)."""
         if self._in_flight() >= self.host.limits.max_in_flight:
@@ -396,6 +424,8 @@ class ServerConnection(asyncio.Protocol):
         outcome = self.host.handle(self, msg, tag=frame.tag, received_ns=received_ns)
         for reply in outcome.replies:
             self._send(reply)
+        if outcome.later is not None:
+            self._reply_off_loop(outcome.later)  # issue #19: a large reply
         if outcome.wait is not None:
             self.waiting = outcome.wait.ticket  # OA-STREAM-7: the reply comes later
         if outcome.close_this:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 from openair.attachments import chunks_of
 from openair.content import RetrieveSpec
@@ -18,19 +19,31 @@ from openair.errors import (
     RetrieveInvalidError,
     WhiteboardUnknownError,
 )
+from openair.fastcodec import fast_encode_str
 from openair.message import Message
-from openair.objects import encode_message_collection, parse_content
+from openair.objects import parse_content
 from openair.registration import parse_retrieve_element, parse_retrieves
 from openair.server.commands import error_reply, reply
 from openair.server.whiteboard import Whiteboard, text_bytes
+from openair.wakeup import collection_xml, frame_bytes
 from openair.xmlsafe import local_name
 
-__all__ = ["RETRIEVE", "RETRIEVES", "answer_retrieve", "parse_request", "registration_results"]
+__all__ = [
+    "RETRIEVE",
+    "RETRIEVES",
+    "PreparedRetrieve",
+    "answer_retrieve",
+    "parse_request",
+    "prepare_retrieve",
+    "registration_results",
+]
 
 RETRIEVE = "AIR.Retrieve"
 RETRIEVES = "AIR.Retrieves"
 # The envelope around the collection in a reply: type, ids, names and times; generous.
 _ENVELOPE_ALLOWANCE = 1024
+# Results of at least this many text bytes make a reply that is written on a worker thread.
+_LARGE_BYTES = 256 * 1024
 
 
 def parse_request(msg: Message) -> tuple[RetrieveSpec, ...]:
@@ -63,7 +76,89 @@ def answer_retrieve(
     The results' attachments travel as the reply's chunks (OA-RET-19); a reply whose XML or
     chunks would exceed the limits is LIMIT_EXCEEDED (OA-RET-15).
     """
-    base = RETRIEVES if msg.type == RETRIEVES else RETRIEVE
+    prepared = prepare_retrieve(
+        msg, addressee, whiteboards, now_ns=now_ns, max_xml=max_xml, max_binary=max_binary
+    )
+    return prepared.build()[0]
+
+
+@dataclass(frozen=True, slots=True)
+class PreparedRetrieve:
+    """The results of a retrieve, chosen; its reply is built by `build`, on any thread.
+
+    Choosing reads the whiteboards, so it happens where they live (the event loop); writing a
+    reply of thousands of messages takes a second, so a server does it on a worker thread while
+    other clients are served (issue #19, item 6). The results are immutable stored copies.
+    """
+
+    request: Message
+    sender: str
+    now_ns: int
+    results: tuple[Message, ...] = ()
+    error: OpenAIRError | None = None
+    max_xml: int = 0
+    max_binary: int = 0
+
+    @property
+    def large(self) -> bool:
+        """Whether building the reply is worth a worker thread."""
+        return self.error is None and sum(text_bytes(m) for m in self.results) >= _LARGE_BYTES
+
+    def build(self) -> tuple[Message, bytes | None]:
+        """Return the reply and its Message frame (None: the sender encodes it as usual)."""
+        base = RETRIEVES if self.request.type == RETRIEVES else RETRIEVE
+        try:
+            content, chunks = self._content()
+        except OpenAIRError as err:
+            failed = error_reply(
+                self.request, err, sender=self.sender, now_ns=self.now_ns, type_=f"{base}.Failed"
+            )
+            return failed, None
+        answer = reply(
+            self.request,
+            f"{base}.Success",
+            sender=self.sender,
+            now_ns=self.now_ns,
+            content=content,
+            xml=True,
+        )
+        if chunks:
+            return dataclasses.replace(answer, binary=chunks), None
+        # The collection is the canonical text lxml writes, so it is spliced in as it is.
+        text = fast_encode_str(answer, xml_content=True)
+        return answer, frame_bytes(text.encode("utf-8")) if text is not None else None
+
+    def _content(self) -> tuple[str, tuple[bytes, ...]]:
+        if self.error is not None:
+            raise self.error
+        results = self.results
+        content = collection_xml(results)  # OA-RET-7: what encode_message_collection writes
+        if len(content.encode("utf-8")) + _ENVELOPE_ALLOWANCE > self.max_xml:  # OA-RET-15
+            raise LimitExceededError(
+                f"{len(results)} results exceed max-frame-xml ({self.max_xml} bytes)"
+            )
+        chunks = chunks_of(list(results))  # OA-RET-19, OA-MSG-21: in the order of the results
+        if sum(len(chunk) for chunk in chunks) > self.max_binary:  # OA-RET-15
+            raise LimitExceededError(
+                f"the attachments of {len(results)} results exceed max-frame-binary"
+                f" ({self.max_binary} bytes); ask for fewer with latest"
+            )
+        return content, chunks
+
+
+def prepare_retrieve(
+    msg: Message,
+    addressee: Whiteboard,
+    whiteboards: Mapping[str, Whiteboard],
+    *,
+    now_ns: int,
+    max_xml: int,
+    max_binary: int = 64 * 1024 * 1024,
+) -> PreparedRetrieve:
+    """Choose the results of an AIR.Retrieve / AIR.Retrieves (spec 9.1–9.4), not yet written."""
+    prepared = PreparedRetrieve(
+        request=msg, sender=addressee.name, now_ns=now_ns, max_xml=max_xml, max_binary=max_binary
+    )
     try:
         specs = parse_request(msg)
         results: list[Message] = []
@@ -78,24 +173,9 @@ def answer_retrieve(
                 raise LimitExceededError(
                     f"the results exceed max-frame-xml ({max_xml} bytes); ask for fewer with latest"
                 )
-        content = encode_message_collection(results)  # OA-RET-7
-        if len(content.encode("utf-8")) + _ENVELOPE_ALLOWANCE > max_xml:  # OA-RET-15
-            raise LimitExceededError(
-                f"{len(results)} results exceed max-frame-xml ({max_xml} bytes)"
-            )
-        chunks = chunks_of(results)  # OA-RET-19, OA-MSG-21: in the order of the results
-        if sum(len(chunk) for chunk in chunks) > max_binary:  # OA-RET-15
-            raise LimitExceededError(
-                f"the attachments of {len(results)} results exceed max-frame-binary"
-                f" ({max_binary} bytes); ask for fewer with latest"
-            )
     except OpenAIRError as err:
-        sender = addressee.name
-        return error_reply(msg, err, sender=sender, now_ns=now_ns, type_=f"{base}.Failed")
-    answer = reply(
-        msg, f"{base}.Success", sender=addressee.name, now_ns=now_ns, content=content, xml=True
-    )
-    return dataclasses.replace(answer, binary=chunks) if chunks else answer
+        return dataclasses.replace(prepared, error=err)
+    return dataclasses.replace(prepared, results=tuple(results))
 
 
 def registration_results(

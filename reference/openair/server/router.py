@@ -45,7 +45,7 @@ from openair.server.config import (
 )
 from openair.server.contexts import PHASE_CHANGE, Contexts, context_of
 from openair.server.queues import item_bytes
-from openair.server.retrieve import RETRIEVE, RETRIEVES, answer_retrieve, registration_results
+from openair.server.retrieve import RETRIEVE, RETRIEVES, prepare_retrieve, registration_results
 from openair.server.sessions import ConnId, ModuleInfo, Sessions
 from openair.server.store import HistoryStore
 from openair.server.streams import Alarm, StreamSpec
@@ -124,6 +124,9 @@ class Outcome:
     resolved: tuple[WaitReply, ...] = ()
     pushes: tuple[SamplePush, ...] = ()
     push_stream: str = ""
+    # A reply too large to write on the event loop (issue #19, item 6): instead of `replies`,
+    # a function that builds it and its frame on any thread. Only with `defer_large_replies`.
+    later: Callable[[], tuple[Message, bytes | None]] | None = None
 
 
 @dataclass(slots=True)
@@ -176,6 +179,8 @@ class Router:
         #: Called with (whiteboard, stored message, its deliveries) after every stored post; the
         #: web monitor's tap. It must do O(1) work and never raise (routing waits for it).
         self.observer: Callable[[str, Message, tuple[Delivery, ...]], None] | None = None
+        # The adapter writes large replies on a worker thread (Outcome.later, issue #19).
+        self.defer_large_replies = False
         self.address = address
         self.port = port
         self.limits = limits
@@ -241,8 +246,8 @@ class Router:
         outcome = self._dispatch(conn, msg, tag, received_ns, now_ns)
         if started is not None and started.deliveries:
             outcome = replace(outcome, deliveries=started.deliveries + outcome.deliveries)
-        if msg.noreply and self._noreply and outcome.replies:
-            outcome = replace(outcome, replies=())  # OA-MSG-15, OA-WB-8: no reply at all
+        if msg.noreply and self._noreply and (outcome.replies or outcome.later):
+            outcome = replace(outcome, replies=(), later=None)  # OA-MSG-15, OA-WB-8: no reply
         return outcome
 
     def connection_closed(self, conn: ConnId, *, now_ns: int) -> Outcome:
@@ -439,7 +444,7 @@ class Router:
             return self._subscribe(board, msg, now_ns)
         if kind in (RETRIEVE, RETRIEVES):
             caught_up = self._adopted(board, board.sync(), now_ns)  # OA-CLU-3
-            answer = answer_retrieve(
+            prepared = prepare_retrieve(
                 msg,
                 board,
                 self._whiteboards,
@@ -447,6 +452,9 @@ class Router:
                 max_xml=self.limits.max_frame_xml,
                 max_binary=self.limits.max_frame_binary,  # OA-RET-15, OA-RET-19
             )
+            if self.defer_large_replies and prepared.large:  # written off the loop (issue #19)
+                return Outcome(later=prepared.build, deliveries=caught_up)
+            answer = prepared.build()[0]
             return Outcome(replies=(answer,), deliveries=caught_up)
         if kind == "PING" or kind == "KEEPALIVE":
             return self._session_reply(msg, board.name, now_ns)

@@ -1,0 +1,109 @@
+"""Fairness under large work (issue #19, item 6): a large retrieve is written off the loop.
+
+Choosing the results reads the whiteboard on the event loop; writing the reply of thousands of
+messages is done on a worker thread while the loop serves everyone else, and the reply is the
+one the lxml writer would send. Nothing sleeps: the worker waits for the test to say so.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import pytest
+from server_io_helpers import BOUND, Raw, run, serving
+
+from openair.codec import to_frame
+from openair.framing import encode_frame
+from openair.message import Message
+from openair.objects import encode_message_collection, parse_message_collection
+from openair.server import retrieve as retrieve_module
+from openair.server.retrieve import PreparedRetrieve, answer_retrieve, prepare_retrieve
+from openair.server.store import MemoryStore
+from openair.server.whiteboard import Whiteboard
+
+KIB = 1024
+_ALL = '<retrieve type="Test.*"><latest>0</latest></retrieve>'
+
+
+def _board(n: int, size: int) -> Whiteboard:
+    board = Whiteboard("WB1", store=MemoryStore(), maxcount=10_000)
+    for i in range(n):
+        board.store_post(Message(type=f"Test.{i}", to="WB1", sender="P", content="x" * size), i)
+    return board
+
+
+def _retrieve(content: str = _ALL) -> Message:
+    return Message(type="AIR.Retrieve", to="WB1", sender="R", content=content, content_is_xml=True)
+
+
+def test_the_prepared_reply_is_the_one_the_lxml_writer_sends() -> None:
+    board = _board(300, KIB)
+    prepared = prepare_retrieve(_retrieve(), board, {"WB1": board}, now_ns=5, max_xml=1 << 24)
+    assert prepared.large and len(prepared.results) == 300
+    reply, wire = prepared.build()
+    assert reply.type == "AIR.Retrieve.Success"
+    assert reply.content == encode_message_collection(prepared.results)  # OA-RET-7
+    assert wire == encode_frame(to_frame(reply))  # the spliced frame is the written one
+    assert [m.type for m in parse_message_collection(reply.content)][:2] == ["Test.299", "Test.298"]
+
+
+@pytest.mark.parametrize(
+    ("content", "code"),
+    [("<nonsense/>", "RETRIEVE_INVALID"), (_ALL.replace("<latest>0", "<latest>1"), "")],
+)
+def test_small_and_failing_retrieves_are_not_deferred(content: str, code: str) -> None:
+    board = _board(3, KIB)
+    prepared = prepare_retrieve(_retrieve(content), board, {"WB1": board}, now_ns=5, max_xml=9999)
+    assert not prepared.large
+    direct = answer_retrieve(_retrieve(content), board, {"WB1": board}, now_ns=5, max_xml=9999)
+    assert prepared.build()[0].type == direct.type
+    assert code in direct.content
+
+
+def test_a_reply_past_max_frame_xml_is_limit_exceeded_when_written() -> None:
+    board = _board(300, KIB)
+    prepared = prepare_retrieve(_retrieve(), board, {"WB1": board}, now_ns=5, max_xml=200 * KIB)
+    reply, wire = prepared.build()
+    assert reply.type == "AIR.Retrieve.Failed" and "LIMIT_EXCEEDED" in reply.content
+    assert wire is None  # OA-RET-15
+
+
+def test_other_clients_are_served_while_a_large_retrieve_reply_is_written(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    released = threading.Event()
+    threads: list[str] = []
+    original = PreparedRetrieve.build
+
+    def held(self: PreparedRetrieve) -> Any:
+        threads.append(threading.current_thread().name)
+        released.wait(BOUND)  # on the loop this would stop every client until it timed out
+        return original(self)
+
+    monkeypatch.setattr(retrieve_module.PreparedRetrieve, "build", held)
+
+    async def body() -> None:
+        server = await serving()
+        poster, reader, other = [await Raw.open(server.port) for _ in range(3)]
+        for i in range(300):  # 300 KiB of results: a reply written off the loop
+            poster.send(Message(type=f"Test.{i}", to="WB1", sender="P", content="x" * KIB))
+        for _ in range(300):
+            assert (await poster.recv()) is not None
+        retrieve = _retrieve()
+        reader.send(retrieve)
+        reader.send(Message(type="PING", to="CNS", sender="R"))  # answered after, in order
+        await other.ping()  # served while the retrieve's reply is being written
+        released.set()
+        first, second = await reader.recv(), await reader.recv()
+        assert first is not None and first.type == "AIR.Retrieve.Success"
+        assert (
+            first.isresponse == retrieve.id and len(parse_message_collection(first.content)) == 300
+        )
+        assert second is not None and second.type == "PING_SUCCESS"  # OA-SESS-2
+        for raw in (poster, reader, other):
+            await raw.close()
+        await server.stop()
+
+    run(body)
+    assert len(threads) == 1 and threads[0] != threading.current_thread().name

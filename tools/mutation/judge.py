@@ -4,11 +4,12 @@
 cosmic-ray has just mutated one module. It finds the mutated lines by comparing the copy's
 modules with the pristine copy, picks the cases that executed those lines in the control run
 (`selection.select_cases_for`; only cases that passed there), starts the mutated server
-in-process and runs them, fastest first, four at a time; the first case that ends `fail` or
-`error`, a server that dies, or one that does not start kills the mutant, and so does a case
-that ends `timing` twice (the second time alone, on a new server). A mutant
-on a line no case executes survives without a run ("not-executed"). With no mutation found
-(cosmic-ray's baseline) every passing case runs: the clean server must survive.
+in-process and runs them, fastest first, four at a time; the first case that ends `fail`,
+`pass-nonstrict` (a SHOULD failed) or `error`, a server that dies, or one that does not
+start kills the mutant, and so does a case that ends `timing` twice (the second time alone, on
+a new server). A mutant on a line no case executes survives without a run ("not-executed").
+With no mutation found (cosmic-ray's baseline) every passing case runs: the clean server must
+survive.
 
 The last line of standard output is a JSON record (verdict, kind, lines, cases, killer,
 seconds) that cosmic-ray stores as the result's output; the report reads it.
@@ -32,10 +33,12 @@ __all__ = ["KILLED", "SURVIVED", "find_mutation", "main"]
 
 SURVIVED = 0
 KILLED = 1
-#: Verdicts that catch a mutant at once: a MUST failed, or the harness broke on the server's
-#: answer. A missed deadline (`timing`) catches it only when the case, run again alone on a new
-#: server, misses it again: on a loaded machine a clean server misses one now and then.
-_CATCHING = frozenset({"fail", "error"})
+#: Verdicts that catch a mutant at once: a MUST failed, a SHOULD failed (`pass-nonstrict`: the
+#: suite reports the deviation; only cases that pass on the clean server are run), or the
+#: harness broke on the server's answer. A missed deadline (`timing`) catches it only when the
+#: case, run again alone on a new server, misses it again: on a loaded machine a clean server
+#: misses one now and then.
+_CATCHING = frozenset({"fail", "pass-nonstrict", "error"})
 _TIMING = "timing"
 _JOBS = 4
 

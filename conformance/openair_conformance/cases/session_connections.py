@@ -115,14 +115,16 @@ async def isresponse_everywhere(ctx: CaseContext) -> None:
     requirements=("OA-SESS-32", "OA-MSG-8"),
     level=Level.SHOULD,
     allowed=(
-        "distinct non-empty ids; from = CNS, WB1 or AIRCentral as addressed; to = the "
-        "requester; a postedTime",
+        "distinct non-empty ids; from = the component addressed (CNS, WB1, AIRCentral, "
+        "Config, Psyclone, AIRServer, WB2); to = the requester; a postedTime",
     ),
 )
 async def reply_envelope(ctx: CaseContext) -> None:
-    """PING CNS, post to WB1, retrieve via AIRCentral; check each reply's envelope.
+    """PING CNS, post to WB1, retrieve via AIRCentral, PING the other components (issue #15:
+    not only CNS); check each reply's envelope.
 
-    Catches: replies that reuse the request's id, come from a generic name, or lack a time.
+    Catches: replies that reuse the request's id, come from a generic name (every PING answered
+    from CNS), or lack a time.
     """
     raw = await ctx.raw()
     me = ctx.name("E")
@@ -140,6 +142,8 @@ async def reply_envelope(ctx: CaseContext) -> None:
             ),
             "AIRCentral",
         ),
+        *((Message(type="PING", sender=me, to=c), c) for c in ("Config", "Psyclone", "AIRServer")),
+        (Message(type="PING", sender=me, to="WB2"), "WB2"),
     ]
     ids = set()
     for request, component in requests:

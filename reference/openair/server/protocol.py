@@ -45,6 +45,7 @@ from openair.framing import Frame, FrameReader, FrameTag, encode_frame, encode_f
 from openair.message import Message
 from openair.server.budgets import Budget
 from openair.server.config import ServerLimits
+from openair.server.datapath import DataPath, datapath_of
 from openair.server.router import Outcome
 from openair.times import AirTime
 from openair.xmlsafe import XmlLimits, local_name, parse_xml
@@ -184,6 +185,8 @@ class ServerConnection(asyncio.Protocol):
         self._frame_no = -1  # frames_in when that frame began (-1: no frame begun)
         self._decoding = 0  # XML bytes of a request being decoded off the loop (0: none)
         self._eof = False  # the peer closed its side while a request was being decoded
+        # The bytes-level data path offered every read first (issue #20); None: the reference.
+        self._datapath: DataPath | None = datapath_of(host)
 
     # -- transport callbacks ------------------------------------------------------------------
 
@@ -206,6 +209,8 @@ class ServerConnection(asyncio.Protocol):
         self._last_byte = self.last_traffic = time.monotonic()
         if self.frames_in == 0 and self._taken_by_http(data):
             return
+        if self._datapath is not None and self.waiting is None and not self._decoding:
+            data = self._datapath.feed(self, data, received_ns)  # issue #20: bytes level first
         try:
             self._reader.feed(data)
         except RemoteProtocolError as exc:

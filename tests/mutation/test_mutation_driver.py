@@ -190,9 +190,11 @@ def test_report_counts_rates_and_explanations(tmp_path: Path) -> None:
     assert a.rate == pytest.approx(8 / 10)
     assert rows["b.py"].rate == 1.0
     text = render(records, explanations, header=["run of today"])
-    counts = "| 14 | 11 | 7 | 1 | 2 | 1 | 1 | 2 | 1 | 1 | 0 | 1 |"
-    assert f"| other | a.py {counts} 80.0 % **below target** |" in text
-    assert "| other | b.py | 1 | 1 | 1 | 0 | 0 | 0 | 0 | 0 | 0 | 0 | 0 | 0 | 100.0 % |" in text
+    counts = "| 14 | 11 | 7 | 1 | 2 | 1 | 1 | 2 | 1 | 0 | 1 | 0 | 1 |"
+    sample = "sample of 11, 95 % CI 49.0 %–94.3 %"  # one mutant not run: a sample
+    assert f"| other | a.py {counts} 80.0 % **below target** | {sample} |" in text
+    b_counts = "| 1 | 1 | 1 | 0 | 0 | 0 | 0 | 0 | 0 | 0 | 0 | 0 | 0 |"
+    assert f"| other | b.py {b_counts} 100.0 % | full |" in text
     assert text.count("**UNEXPLAINED**") == 2
     assert "a.py:3 op (0 cases): equivalent: the two branches" in text
     assert "  +x > y" in text and "+++ b" not in text

@@ -90,6 +90,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"mutant timeout {args.timeout:g} s; {ran}"
         + (f"; sample {args.sample} per module, seed {args.seed!r}." if args.sample else "."),
     ]
+    if campaign.earlier:
+        header.append(
+            "Changed since their campaign (results of the earlier version, kept beside its "
+            "session): " + ", ".join(campaign.earlier) + "."
+        )
     args.report.parent.mkdir(parents=True, exist_ok=True)
     args.report.write_text(render(records, explanations, header=header), encoding="utf-8")
     print(f"report: {args.report}")

@@ -121,6 +121,8 @@ class Campaign:
         self.files = tracked_files(settings.root)
         self.tree = tree_hash(settings.root, self.files)
         self.prepared = False
+        #: Modules whose report comes from the session of an earlier version (records()).
+        self.earlier: list[str] = []
 
     @property
     def map_path(self) -> Path:
@@ -166,8 +168,29 @@ class Campaign:
         tmp.unlink(missing_ok=True)
         cmd = [str(_COSMIC_RAY), "init", str(config), str(tmp)]
         subprocess.run(cmd, cwd=self.pristine, check=True)
+        path.with_suffix(".py").write_text(self.source(module), encoding="utf-8")
         tmp.replace(path)
         return path
+
+    def report_session(self, module: str) -> tuple[Path | None, str, bool]:
+        """Return (session, its module source, whether it is the current source's) to report.
+
+        The current source's session when it exists; otherwise the newest session of the
+        module whose source was kept beside it (another engineer changed the module since that
+        campaign: its results stay reportable, marked as of an earlier version).
+        """
+        path = self.session_path(module)
+        if path.exists():
+            return path, self.source(module), True
+        olders = sorted(
+            (p for p in path.parent.glob(f"{Path(module).stem}-*.sqlite") if ".tmp." not in p.name),
+            key=lambda p: p.stat().st_mtime,
+        )
+        for older in reversed(olders):
+            kept = older.with_suffix(".py")
+            if kept.exists():
+                return older, kept.read_text(encoding="utf-8"), False
+        return None, "", False
 
     def filter_session(self, module: str, session: Path) -> int:
         """Record as skipped, before any run, the mutants that need no judge; return how many.
@@ -219,14 +242,15 @@ class Campaign:
 
     def records(self, module: str) -> list[MutantRecord]:
         """Return the module's mutants and results (nothing when it has no session yet)."""
-        session = self.session_path(module)
-        if not session.exists():
+        session, source, current = self.report_session(module)
+        if session is None:
             return []
-        keys = self.keys(module)
-        source = self.source(module)
+        if not current:
+            self.earlier.append(f"{module} ({session.stem})")
         with use_db(str(session), WorkDB.Mode.open) as db:
             results = dict(db.results)
             items = db.work_items
+        keys = mutant_keys((_site(i) for i in items), {module: source})
         return [
             record_from(
                 keys[i.job_id],

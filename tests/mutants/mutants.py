@@ -17,7 +17,9 @@ nothing is patched outside the block). The mutants live in modules by spec area:
 - mutants_attachments.py — issue #21: attachments, the content version, bare stream
   registrations, `qos` (timetolive, alarm triggers) and the bounded payload search;
 - mutants_sharpened.py — issue #15: boundaries the examples never touched (retries, time
-  windows, rare stored-copy slots, letter case, fractional priorities, every component).
+  windows, rare stored-copy slots, letter case, fractional priorities, every component);
+- mutants_faults.py — issue #15: faults from the hand-written set (tests/faults) the suite
+  once passed (white space around content, receivedTime to the second).
 
 test_mutants.py runs the conformance cases that could catch each mutant against a server
 started with it active, and reports which cases catch which mutant.
@@ -28,6 +30,7 @@ from __future__ import annotations
 import mutants_attachments
 import mutants_clarified
 import mutants_contexts
+import mutants_faults
 import mutants_input
 import mutants_matching
 import mutants_routing
@@ -52,4 +55,5 @@ MODULES = (
     mutants_contexts,
     mutants_attachments,
     mutants_sharpened,
+    mutants_faults,
 )

@@ -1,0 +1,52 @@
+"""Mutants of issue #15 found by the hand-written faults (tests/faults/independent.toml).
+
+Each was a one-line fault the suite once passed with every case green: a content glob
+matched against the stripped text (fault I08, OA-RET-8, OA-RET-18) and a receivedTime kept
+only to the second (fault I23, OA-TIME-3). The cases that now catch them are RET-023 and
+TIME-001.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from mutants_core import Fn, mutant, wrap
+
+from openair.message import Message
+from openair.server import whiteboard
+from openair.server.whiteboard import Whiteboard
+
+_NS_PER_S = 1_000_000_000
+
+
+@mutant(
+    "glob-stripped",
+    "a retrieve's content glob is matched against the text without its leading and trailing "
+    "white space",
+    "OA-RET-8",
+    "OA-RET-18",
+)
+def _glob_stripped(mp: pytest.MonkeyPatch) -> None:
+    original = whiteboard.text_of
+
+    def text_of(msg: Message) -> str:
+        return original(msg).strip()
+
+    mp.setattr(whiteboard, "text_of", text_of)
+
+
+@mutant(
+    "received-to-the-second",
+    "receivedTime is stamped to the whole second (the milliseconds of receipt are lost)",
+    "OA-TIME-3",
+)
+def _received_to_the_second(mp: pytest.MonkeyPatch) -> None:
+    def make(original: Fn) -> Fn:
+        def stamp(self: Whiteboard, received_ns: int, *args: Any, **kwargs: Any) -> int:
+            truncated = received_ns // _NS_PER_S * _NS_PER_S
+            return int(original(self, truncated, *args, **kwargs))
+
+        return stamp
+
+    wrap(mp, Whiteboard, "stamp", make)

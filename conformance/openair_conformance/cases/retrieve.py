@@ -331,8 +331,9 @@ async def unknown_whiteboard(ctx: CaseContext) -> None:
 )
 async def invalid_specs(ctx: CaseContext) -> None:
     """Send empty content, text `garbage`, `<foo/>`, `latest="x"`, `<latest>-1</latest>`, a
-    context criterion (`before`), AIR.Retrieves holding a bare `<retrieve>`, and a `latest`
-    given as element and attribute with different values.
+    context criterion (`before`), AIR.Retrieves holding a bare `<retrieve>`, a `latest`
+    given as element and attribute with different values, and two `<retrieve>` (two
+    `<retrieves>`) elements where one is required.
 
     Catches: everything returned for garbage (Psyclone, DEV-14), failures without a reason
     (DEV-15), context criteria silently ignored.
@@ -347,6 +348,10 @@ async def invalid_specs(ctx: CaseContext) -> None:
         (_spec(ctx, "*", attrs='before="Psyclone.System.Ready"'), True, False),
         (_spec(ctx, "*"), True, True),
         (_spec(ctx, "*", "<latest>1</latest>", 'latest="2"'), True, False),
+        # Two roots are not "a <retrieve>" / "a <retrieves>" element (issue #15: the mutants
+        # that take the first of several, or accept any count but 0, survived).
+        (_spec(ctx, "*") * 2, True, False),
+        (f"<retrieves>{_spec(ctx, '*')}</retrieves>" * 2, True, True),
     ]
     for content, xml, plural in cases:
         kind = "AIR.Retrieves" if plural else "AIR.Retrieve"

@@ -207,7 +207,11 @@ def test_report_counts_rates_and_explanations(tmp_path: Path) -> None:
 
 
 def test_committed_explanations_are_well_formed_and_modules_resolve() -> None:
-    load_explanations(ROOT / "tools" / "mutation" / "equivalent.toml")
+    committed = load_explanations(ROOT / "tools" / "mutation" / "equivalent.toml")
+    every = set(resolve_modules([]))
+    for key in committed:  # a mutant, `module:linehash` or `module:def:Name`, of a listed module
+        module, _, rest = key.partition(":")
+        assert module in every and rest and len(rest.split(":")) in (1, 2, 3), key
     assert resolve_modules(["whiteboard", "queues"]) == [
         WHITEBOARD,
         "reference/openair/server/queues.py",

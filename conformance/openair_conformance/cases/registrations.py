@@ -227,8 +227,8 @@ async def replace(ctx: CaseContext) -> None:
 )
 async def invalid_registrations(ctx: CaseContext) -> None:
     """Register Keep; then send empty content, text, `<foo/>`, a trigger without type,
-    `after="-5"`, `after="soon"`, a retrieve with `latest="x"`, and a valid form with an empty
-    `from`; post Keep.
+    `after="-5"`, `after="soon"`, `<triggers>` holding a `<retrieve>` or a `<typo>`, a retrieve
+    with `latest="x"`, and a valid form with an empty `from`; post Keep.
 
     Catches: refusals that are acknowledged anyway (Psyclone, DEV-8), and a refused
     registration that still replaces the old one.
@@ -243,6 +243,10 @@ async def invalid_registrations(ctx: CaseContext) -> None:
         ('<triggers><trigger from="WB1"/></triggers>', True),
         (f'<triggers><trigger from="WB1" type="{t}" after="-5"/></triggers>', True),
         (f'<triggers><trigger from="WB1" type="{t}" after="soon"/></triggers>', True),
+        # <triggers> holds only <trigger> elements (issue #15: a name compared by order, so
+        # that <retrieve> or <typo> passed for a trigger, survived).
+        (f'<triggers><retrieve from="WB1" type="{t}"/></triggers>', True),
+        (f'<triggers><typo from="WB1" type="{t}"/></triggers>', True),
         (
             f'<module name="{sub.name}"><trigger type="{t}"/>'
             f'<retrieve from="WB1" type="{t}" latest="x"/></module>',

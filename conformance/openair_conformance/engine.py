@@ -1,59 +1,73 @@
-"""The engine: probe the target, run the selected cases, judge them, emit events.
+"""The engine: run the selected cases against a target, judge them, emit events.
 
-`run(options, reporters)` probes the server (round-trip time, capabilities), runs the non-serial
-cases `jobs` at a time in one event loop and then the serial ones alone, maps each outcome to a
-verdict (`judge`), applies the expectations file (`apply_expectation`) and emits `RunStarted`,
-`CaseStarted`, `CaseFinished` and `RunFinished` to every reporter; `Reporter.close` is called
-once at the end, also when the run stops early. `exit_code` applies the `--fail-on` policy.
+One engine for every kind of target (`targets`: a server over TCP, a client library through
+its shim, a world-model module). `run_target(target, cases, reporters)` starts the target,
+runs the non-serial cases `jobs` at a time in one event loop and then the serial ones alone,
+judges each outcome with the one verdict model (`verdicts.case_result`, with the expectations
+file when there is one) and emits `RunStarted`, `CaseStarted`, `CaseFinished` and `RunFinished`
+to every reporter; `Reporter.close` is called once at the end, also when the run stops early.
+After a case that did not pass the target is asked whether it is still alive, and
+`--on-target-death` decides what a death does. `run(options, reporters)` is the server mode;
+`exit_code` applies the `--fail-on` policy.
 """
 
 from __future__ import annotations
 
 import asyncio
-import math
 import random
-import secrets
-import shlex
-import ssl
 import sys
 import time
-import traceback
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from pathlib import Path
+from typing import Generic, TypeVar
 
 from openair_conformance.expectations import (
     Expectations,
-    apply_expectation,
     find_expectation,
     load_expectations,
     unknown_entries,
 )
 from openair_conformance.harness.conn import TARGET_TLS
-from openair_conformance.harness.context import GRACE_FACTOR, CaseContext, deadline_for
-from openair_conformance.harness.liveness import Restarter, alive, first_unanswered
-from openair_conformance.harness.probe import TargetUnreachable, probe
-from openair_conformance.harness.trace import Trace
+from openair_conformance.harness.liveness import first_unanswered
+from openair_conformance.harness.probe import TargetUnreachable
 from openair_conformance.model import (
     CaseFinished,
     CaseInfo,
     CaseResult,
     CaseStarted,
     Event,
-    Fail,
-    Inconclusive,
-    Level,
-    NotApplicable,
     Reporter,
     RunFinished,
     RunStarted,
     RunSummary,
-    ServerInfo,
     TargetDeath,
-    Timing,
+    TraceEntry,
     Verdict,
 )
 from openair_conformance.registry import RegisteredCase, all_cases, select_cases
+from openair_conformance.schedule import (
+    DEATH_ACTIONS,
+    ORDERS,
+    EngineError,
+    NoCasesSelected,
+    Schedule,
+)
+from openair_conformance.targets import Case, Started, Target
+from openair_conformance.targets.server import (
+    DEFAULT_STREAM,
+    RunOptions,
+    ServerTarget,
+    parse_target,
+)
+from openair_conformance.verdicts import (
+    DEFAULT_FAIL_ON,
+    EXIT_TARGET_DIED,
+    LATENCY_MEASURE,
+    case_result,
+    exit_code,
+    judge,
+    summarize,
+)
 
 __all__ = [
     "DEATH_ACTIONS",
@@ -65,161 +79,27 @@ __all__ = [
     "EngineError",
     "NoCasesSelected",
     "RunOptions",
+    "Schedule",
     "TargetUnreachable",
+    "close_reporters",
     "exit_code",
     "judge",
     "parse_target",
     "run",
+    "run_target",
 ]
 
-DEFAULT_FAIL_ON = frozenset({Verdict.FAIL, Verdict.ERROR, Verdict.UNEXPECTED_PASS})
-LATENCY_MEASURE = "post_to_wakeup_ms"
-DEFAULT_PORT = 10000
-DEFAULT_STREAM = "Stream1"
-# A case that runs longer than this many deadlines (and at least _MIN_BUDGET s) is stopped and
-# judged ERROR: every wait in the harness is bounded, so only a harness bug gets there.
-_BUDGET_DEADLINES = 60
-_MIN_BUDGET = 60.0
-#: Fuzzing examples against a slow target (see `_Run.fuzz_examples`).
-_FUZZ_DEFAULT = 25
-_FUZZ_FAST_RTT = 0.05
-_FUZZ_MIN_EXAMPLES = 5
-#: What `--on-target-death` may say (`restart` needs `restart_cmd`).
-DEATH_ACTIONS = ("stop", "continue", "restart")
-#: The orders cases may be started in (`--order`).
-ORDERS = ("registry", "random")
-#: The exit code of a run during which the target died (README, exit codes).
-EXIT_TARGET_DIED = 5
+C = TypeVar("C", bound=Case)
+
 #: Verdicts after which the target is not asked whether it is still alive: it just answered.
 _ANSWERED = frozenset({Verdict.PASS, Verdict.NOT_APPLICABLE, Verdict.UNEXPECTED_PASS})
 
 
-class EngineError(Exception):
-    """The run cannot start (bad options, nothing selected)."""
-
-
-class NoCasesSelected(EngineError):
-    """The --case / --section filters selected no case."""
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class RunOptions:
-    """What to run, against what, and how."""
-
-    target: tuple[str, int]
-    case_globs: tuple[str, ...] = ()
-    sections: tuple[str, ...] = ()
-    jobs: int = 1
-    timeout_scale: float = 1.0
-    expectations: Path | str | None = None
-    fail_on: frozenset[Verdict] = DEFAULT_FAIL_ON
-    verbose: bool = False
-    fuzz_examples: int | None = None
-    replay: str | None = None
-    #: The stream the stream cases use (spec section 11; Stream1 is offered without a
-    #: configuration, OA-STREAM-15).
-    stream: str = DEFAULT_STREAM
-    #: Module names and secrets the secure-mode cases prove (spec 14.3; `--auth-secrets`).
-    auth_secrets: Mapping[str, str] = field(default_factory=dict, repr=False)  # never shown
-    #: TLS towards the target (spec 14.3, OA-AUTH-10; `--tls-ca`); None: plain TCP.
-    tls: ssl.SSLContext | None = field(default=None, repr=False)
-    run_id: str = field(default_factory=lambda: secrets.token_hex(2))
-    probe_timeout: float = 10.0
-    #: `registry` (ID order) or `random` (shuffled with `seed`; a seed is drawn when None).
-    order: str = "registry"
-    seed: int | None = None
-    #: When the target stops answering: `stop`, `continue`, or `restart` (runs `restart_cmd`).
-    on_target_death: str = "stop"
-    restart_cmd: str = ""
-    restart_timeout: float = 60.0
-
-    def __post_init__(self) -> None:
-        if self.jobs < 1:
-            raise EngineError("jobs must be at least 1")
-        if not (self.timeout_scale > 0 and math.isfinite(self.timeout_scale)):
-            raise EngineError("timeout scale must be a positive number")
-        if not self.run_id.isalnum():
-            raise EngineError("run id must be letters and digits")
-        if not self.stream or any(ch.isspace() or ch == ";" for ch in self.stream):
-            raise EngineError("stream name must be non-empty, without white space or ';'")
-        if self.order not in ORDERS:
-            raise EngineError(f"order must be one of {', '.join(ORDERS)}")
-        if self.order == "random" and self.seed is None:  # drawn, and reported to replay it
-            object.__setattr__(self, "seed", secrets.randbelow(1 << 31))
-        if self.on_target_death not in DEATH_ACTIONS:
-            raise EngineError(f"on-target-death must be one of {', '.join(DEATH_ACTIONS)}")
-        if (self.on_target_death == "restart") != bool(self.restart_cmd.strip()):
-            raise EngineError("restart-cmd needs a command, and a command needs restart-cmd")
-
-    @property
-    def target_text(self) -> str:
-        """HOST:PORT (IPv6 hosts in brackets)."""
-        host, port = self.target
-        return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
-
-
-def parse_target(text: str) -> tuple[str, int]:
-    """Parse `HOST[:PORT]` or `[V6]:PORT`; the port defaults to 10000. ValueError if bad."""
-    text = text.strip()
-    if text.startswith("["):
-        host, _, rest = text[1:].partition("]")
-        port_text = rest[1:] if rest.startswith(":") else ""
-        if rest and not rest.startswith(":"):
-            raise ValueError(f"bad target {text!r}")
-    elif text.count(":") == 1:
-        host, port_text = text.split(":")
-    else:
-        host, port_text = text, ""
-    if not host:
-        raise ValueError(f"bad target {text!r}: no host")
-    try:
-        port = int(port_text) if port_text else DEFAULT_PORT
-    except ValueError as exc:
-        raise ValueError(f"bad target {text!r}: port is not a number") from exc
-    if not 0 < port < 65536:
-        raise ValueError(f"bad target {text!r}: port out of range")
-    return host, port
-
-
-def judge(info: CaseInfo, exc: BaseException | None) -> tuple[Verdict, str, str]:
-    """Map a case's outcome to (verdict, message, expected), before expectations."""
-    if exc is None:
-        return Verdict.PASS, "", ""
-    if isinstance(exc, Fail):
-        verdict = {
-            Level.MUST: Verdict.FAIL,
-            Level.SHOULD: Verdict.PASS_NONSTRICT,
-        }.get(info.level, Verdict.INFORMATIONAL)
-        return verdict, exc.message, exc.expected
-    if isinstance(exc, Timing):
-        return Verdict.TIMING, str(exc), ""
-    if isinstance(exc, Inconclusive):
-        return Verdict.INCONCLUSIVE, str(exc), ""
-    if isinstance(exc, NotApplicable):
-        return Verdict.NOT_APPLICABLE, str(exc), ""
-    text = "".join(traceback.format_exception(exc)).rstrip()
-    return Verdict.ERROR, f"harness error (a bug in the suite, not in the server):\n{text}", ""
-
-
-def exit_code(summary: RunSummary, fail_on: frozenset[Verdict] = DEFAULT_FAIL_ON) -> int:
-    """Return 5 if the target died during the run, else 1 if any result has a verdict in
-    `fail_on`, else 0."""
-    if summary.target_deaths:
-        return EXIT_TARGET_DIED
-    return 1 if any(summary.count(v) for v in fail_on) else 0
-
-
-def _percentile(values: Sequence[float], fraction: float) -> float:
-    ordered = sorted(values)
-    rank = max(1, math.ceil(fraction * len(ordered)))  # nearest-rank
-    return ordered[rank - 1]
-
-
 @dataclass(slots=True)
-class _Run:
-    options: RunOptions
+class _Run(Generic[C]):
+    target: Target[C]
+    schedule: Schedule
     reporters: Sequence[Reporter]
-    server: ServerInfo
     expectations: Expectations | None
     results: list[CaseResult] = field(default_factory=list)
     vacuous: list[str] = field(default_factory=list)
@@ -227,12 +107,14 @@ class _Run:
     not_run: list[str] = field(default_factory=list)
     stopped: bool = False
     down: bool = False  # the target was last seen dead (`continue` reports each death once)
-    restarter: Restarter | None = None
     restarting: bool = False
-    interrupted: list[tuple[RegisteredCase, CaseResult]] = field(default_factory=list)
+    interrupted: list[tuple[C, CaseResult]] = field(default_factory=list)
     in_flight: set[str] = field(default_factory=set)
-    #: Traces of the cases that may have been running when the target died (to name the one).
-    watched: dict[str, Trace] = field(default_factory=dict)
+    #: Traces of the cases that may have been running when the target died (to name the one):
+    #: when each began, and how to read its entries so far.
+    watched: dict[str, tuple[float, Callable[[], Sequence[TraceEntry]]]] = field(
+        default_factory=dict
+    )
     gate: asyncio.Event = field(default_factory=asyncio.Event)  # set: cases may start
     idle: asyncio.Event = field(default_factory=asyncio.Event)  # set: no case in flight
 
@@ -240,35 +122,7 @@ class _Run:
         for reporter in self.reporters:
             reporter.handle(event)
 
-    @property
-    def rtt(self) -> float:
-        return self.server.rtt_ms / 1000.0
-
-    @property
-    def fuzz_examples(self) -> int | None:
-        """--fuzz-examples; else, for a slow target, fewer than the fuzzing cases' default.
-
-        A fuzzing example is a dozen round trips: at 0.3 s each, the default 25 examples took
-        over two minutes of a run that must fit in five (issue #16). Above `_FUZZ_FAST_RTT` the
-        count shrinks with the round-trip time, to no fewer than `_FUZZ_MIN_EXAMPLES`.
-        """
-        if self.options.fuzz_examples is not None or self.rtt <= _FUZZ_FAST_RTT:
-            return self.options.fuzz_examples
-        return max(_FUZZ_MIN_EXAMPLES, int(_FUZZ_DEFAULT * _FUZZ_FAST_RTT / self.rtt))
-
-    @property
-    def deadline(self) -> float:
-        return deadline_for(self.rtt, self.options.timeout_scale)
-
-    def repro(self, info: CaseInfo, extra: Sequence[str]) -> str:
-        words = ["openair", "conform", self.options.target_text, "--case", info.id]
-        if self.options.timeout_scale != 1.0:
-            words += ["--timeout-scale", f"{self.options.timeout_scale:g}"]
-        if self.options.stream != DEFAULT_STREAM:
-            words += ["--stream", self.options.stream]
-        return shlex.join([*words, *extra])
-
-    async def schedule(self, cases: Sequence[RegisteredCase], jobs: int) -> None:
+    async def schedule_cases(self, cases: Sequence[C], jobs: int) -> None:
         """Run `cases` `jobs` at a time; hold new starts while the target is restarted."""
         queue = list(cases)
 
@@ -291,7 +145,7 @@ class _Run:
         if not self.in_flight:
             self.idle.set()
 
-    async def run_case(self, case: RegisteredCase, *, first: CaseResult | None = None) -> None:
+    async def run_case(self, case: C, *, first: CaseResult | None = None) -> None:
         """Run one case, ask the target whether it survived, and emit the result."""
         info = case.info
         if first is None:
@@ -299,17 +153,11 @@ class _Run:
         self._enter(info.id)
         try:
             result = await self._attempt(case)
-            problem = await self._dead(result)
+            problem = None if result.verdict in _ANSWERED else await self.target.alive()
         finally:
             self._leave(info.id)
         if first is not None:
-            note = f"rerun after restart; the first attempt was {first.verdict.value}"
-            message = f"{note}: {first.message}" if first.message else note
-            result = replace(
-                result,
-                rerun_after_restart=True,
-                message=f"{message}\n{result.message}" if result.message else message,
-            )
+            result = _rerun(result, first)
         if problem is not None:
             result = replace(result, target_died=True)
             if await self._on_death(case, result, problem, rerun=first is not None):
@@ -324,41 +172,23 @@ class _Run:
         self.results.append(result)
         self.emit(CaseFinished(result=result))
 
-    async def _attempt(self, case: RegisteredCase) -> CaseResult:
+    async def _attempt(self, case: C) -> CaseResult:
         info = case.info
-        ctx = CaseContext(
-            case=info,
-            target=self.options.target,
-            rtt=self.rtt,
-            timeout_scale=self.options.timeout_scale,
-            server=self.server,
-            run_id=self.options.run_id,
-            fuzz_examples=self.fuzz_examples,
-            replay=self.options.replay,
-            stream=self.options.stream,
-            secrets=self.options.auth_secrets,
-        )
-        self.watched[info.id] = ctx.trace
         started = time.monotonic()
-        outcome = await self._execute(case, ctx)
-        return self._result(info, ctx, outcome, time.monotonic() - started)
 
-    async def _dead(self, result: CaseResult) -> str | None:
-        """Return why the target looks dead after this result, or None (cheap: one PING).
+        def watch(origin: float, entries: Callable[[], Sequence[TraceEntry]]) -> None:
+            self.watched[info.id] = (origin, entries)
 
-        Not asked after a pass: the target has just answered. The wait is four deadlines (twice
-        the fail threshold), so that a slow target is not taken for a dead one.
-        """
-        if result.verdict in _ANSWERED:
-            return None
-        host, port = self.options.target
-        return await alive(host, port, timeout=self.deadline * 4)
+        attempt = await self.target.attempt(case, watch)
+        if attempt.outcome is None and attempt.vacuous_reason:
+            self.vacuous.append(info.id)  # OA-GEN-7, judged in case_result
+        expectation = find_expectation(self.expectations, info)
+        duration = time.monotonic() - started
+        return case_result(info, attempt, duration=duration, expectation=expectation)
 
-    async def _on_death(
-        self, case: RegisteredCase, result: CaseResult, problem: str, *, rerun: bool
-    ) -> bool:
+    async def _on_death(self, case: C, result: CaseResult, problem: str, *, rerun: bool) -> bool:
         """Act per --on-target-death; return True when the result is held for a rerun."""
-        mode = self.options.on_target_death
+        mode = self.schedule.on_target_death
         others = tuple(sorted(self.in_flight - {case.info.id}))
         if mode == "restart":
             if not rerun:
@@ -383,7 +213,7 @@ class _Run:
         With cases in parallel the one whose liveness check failed first need not be the one
         that killed the target; the others that may have are listed in `in_flight`.
         """
-        traces = {cid: (trace.origin, trace.entries) for cid, trace in self.watched.items()}
+        traces = {cid: (origin, read()) for cid, (origin, read) in self.watched.items()}
         culprit = first_unanswered(traces) or case_id
         suspects = (set(others) | {case_id} | set(self.watched)) - {culprit}
         death = TargetDeath(
@@ -394,12 +224,10 @@ class _Run:
 
     async def _restart(self, case_id: str, problem: str, others: tuple[str, ...]) -> None:
         """Hold new cases, let the running ones end, restart, then rerun the interrupted."""
-        assert self.restarter is not None
         self.restarting = True
         self.gate.clear()
         await self.idle.wait()
-        host, port = self.options.target
-        failed = await self.restarter.restart(host, port, probe_timeout=self.deadline)
+        failed = await self.target.restart()
         self._record(case_id, problem, "restart-failed" if failed else "restarted", others)
         if failed:
             self.deaths[-1] = replace(self.deaths[-1], detail=f"{problem}; {failed}")
@@ -415,144 +243,23 @@ class _Run:
             await self.run_case(again, first=first)
         self.gate.set()
 
-    async def _execute(self, case: RegisteredCase, ctx: CaseContext) -> BaseException | None:
-        missing = sorted(case.info.needs - set(self.server.capabilities))
-        if missing:
-            return NotApplicable(f"the server does not advertise {', '.join(missing)}")
-        budget = max(_MIN_BUDGET, _BUDGET_DEADLINES * ctx.deadline)
-        outcome: BaseException | None = None
-        try:
-            await asyncio.wait_for(case.fn(ctx), budget)
-        except TimeoutError:
-            outcome = RuntimeError(f"the case did not finish within its {budget:.0f} s budget")
-        except Exception as exc:
-            outcome = exc
-        finally:
-            try:
-                await ctx.aclose()
-            except Exception as exc:
-                ctx.note(f"closing the case's connections failed: {exc!r}")
-        return outcome
 
-    def _result(
-        self, info: CaseInfo, ctx: CaseContext, outcome: BaseException | None, duration: float
-    ) -> CaseResult:
-        verdict, message, expected = judge(info, outcome)
-        divergence = None
-        if isinstance(outcome, Fail):
-            divergence = outcome.divergence
-            if divergence is None and len(ctx.trace):
-                divergence = len(ctx.trace) - 1
-        if verdict == Verdict.PASS and ctx.vacuous_reason:
-            # OA-GEN-7: a pass whose precondition never happened proves nothing.
-            self.vacuous.append(info.id)
-            verdict = Verdict.INCONCLUSIVE
-            message = f"vacuous: {ctx.vacuous_reason}"
-        expectation = find_expectation(self.expectations, info)
-        final = apply_expectation(verdict, expectation)
-        if expectation is not None and final == verdict and verdict != Verdict.PASS:
-            message = f"(expected {expectation.verdict.value}, got {verdict.value}) {message}"
-        return CaseResult(
-            info=info,
-            verdict=final,
-            message=message,
-            expected=expected or "\n".join(info.allowed),
-            trace=ctx.trace.entries,
-            divergence=divergence,
-            duration=duration,
-            repro=self.repro(info, ctx.repro_args),
-            measurements=ctx.measurements,
-            expectation_reason=expectation.describe() if expectation is not None else "",
-        )
-
-    def summary(self, duration: float, known: Sequence[CaseInfo]) -> RunSummary:
-        counts = {v: 0 for v in Verdict}
-        for result in self.results:
-            counts[result.verdict] += 1
-        samples = [
-            value
-            for result in self.results
-            for name, value in result.measurements
-            if name == LATENCY_MEASURE
-        ]
-        latencies: list[tuple[str, float]] = [("rtt_ms", self.server.rtt_ms)]
-        if samples:
-            latencies += [
-                ("post_to_wakeup_p50_ms", _percentile(samples, 0.50)),
-                ("post_to_wakeup_p99_ms", _percentile(samples, 0.99)),
-                ("post_to_wakeup_samples", float(len(samples))),
-            ]
-        return RunSummary(
-            counts=tuple((v, n) for v, n in counts.items() if n),
-            duration=duration,
-            latencies=tuple(latencies),
-            vacuous=tuple(sorted(self.vacuous)),
-            unknown_expectations=unknown_entries(self.expectations, known),
-            results=tuple(sorted(self.results, key=lambda r: r.info.id)),
-            target_deaths=tuple(self.deaths),
-            not_run=tuple(self.not_run),
-        )
+def _rerun(result: CaseResult, first: CaseResult) -> CaseResult:
+    note = f"rerun after restart; the first attempt was {first.verdict.value}"
+    message = f"{note}: {first.message}" if first.message else note
+    return replace(
+        result,
+        rerun_after_restart=True,
+        message=f"{message}\n{result.message}" if result.message else message,
+    )
 
 
-def _ordered(cases: Sequence[RegisteredCase], options: RunOptions) -> list[RegisteredCase]:
+def _ordered(cases: Sequence[C], schedule: Schedule) -> list[C]:
     """Return the cases in the order asked for (`random`: shuffled with the run's seed)."""
     ordered = list(cases)
-    if options.order == "random":
-        random.Random(options.seed).shuffle(ordered)
+    if schedule.order == "random":
+        random.Random(schedule.seed).shuffle(ordered)
     return ordered
-
-
-def _options_record(options: RunOptions, server: ServerInfo) -> dict[str, str]:
-    deadline = deadline_for(server.rtt_ms / 1000.0, options.timeout_scale)
-    record = {
-        "target": options.target_text,
-        "jobs": str(options.jobs),
-        "timeout_scale": f"{options.timeout_scale:g}",
-        "deadline_s": f"{deadline:.3f}",
-        "grace_s": f"{GRACE_FACTOR * deadline:.3f}",
-        "run_id": options.run_id,
-        "fail_on": ",".join(sorted(v.value for v in options.fail_on)),
-    }
-    if options.case_globs:
-        record["cases"] = " ".join(options.case_globs)
-    if options.sections:
-        record["sections"] = " ".join(options.sections)
-    if options.expectations is not None:
-        record["expectations"] = str(options.expectations)
-    if options.fuzz_examples is not None:
-        record["fuzz_examples"] = str(options.fuzz_examples)
-    if options.replay is not None:
-        record["replay"] = options.replay
-    if options.stream != DEFAULT_STREAM:
-        record["stream"] = options.stream
-    if options.order != "registry":
-        record["order"] = options.order
-        record["seed"] = str(options.seed)
-    if options.on_target_death != "stop":
-        record["on_target_death"] = options.on_target_death
-    if options.restart_cmd:
-        record["restart_cmd"] = options.restart_cmd
-    return record
-
-
-async def run(
-    options: RunOptions,
-    reporters: Sequence[Reporter] = (),
-    *,
-    cases: Sequence[RegisteredCase] | None = None,
-) -> RunSummary:
-    """Probe the target, run the selected cases and return the summary.
-
-    `cases` replaces the registry (tests); the --case/--section filters apply to it too.
-    Raises ExpectationError (bad expectations file), NoCasesSelected or TargetUnreachable before
-    any event is emitted. Reporters are closed in every case.
-    """
-    token = TARGET_TLS.set(options.tls)  # every connection of this run (spec 14.3)
-    try:
-        return await _run(options, reporters, cases)
-    finally:
-        TARGET_TLS.reset(token)
-        close_reporters(reporters)
 
 
 def close_reporters(reporters: Sequence[Reporter]) -> None:
@@ -564,37 +271,106 @@ def close_reporters(reporters: Sequence[Reporter]) -> None:
             print(f"reporter {type(reporter).__name__} failed to close: {exc}", file=sys.stderr)
 
 
-async def _run(
-    options: RunOptions, reporters: Sequence[Reporter], cases: Sequence[RegisteredCase] | None
+async def run_target(
+    target: Target[C],
+    selected: Sequence[C],
+    reporters: Sequence[Reporter] = (),
+    *,
+    schedule: Schedule | None = None,
+    expectations: Expectations | None = None,
+    known: Sequence[CaseInfo] = (),
 ) -> RunSummary:
-    expectations = load_expectations(options.expectations) if options.expectations else None
-    known = list(cases) if cases is not None else all_cases()
-    selected = select_cases(known, globs=options.case_globs, sections=options.sections)
-    if not selected:
-        raise NoCasesSelected("no case matches the --case/--section filters")
-    started_wall, started = time.time(), time.monotonic()
-    server = await probe(*options.target, timeout=options.probe_timeout)
-    state = _Run(options=options, reporters=reporters, server=server, expectations=expectations)
-    state.emit(
-        RunStarted(
-            target=options.target_text,
-            started=started_wall,
-            options=_options_record(options, server),
-            server=server,
-            cases=len(selected),
+    """Start `target`, run `selected` and return the summary; reporters are closed always.
+
+    Raises whatever `target.start()` raises (the target cannot be used) before any event.
+    `known` (every case of the suite) only serves to name expectations that match none.
+    """
+    try:
+        return await _run_target(
+            target, selected, reporters, schedule or Schedule(), expectations, known
         )
-    )
-    if options.on_target_death == "restart":
-        state.restarter = Restarter(options.restart_cmd, timeout=options.restart_timeout)
-    state.gate.set()
-    state.idle.set()
-    ordered = _ordered([c for c in selected if not c.info.residue], options)
-    await state.schedule([c for c in ordered if not c.info.serial], options.jobs)
-    # Serial cases need global state: each runs alone.
-    await state.schedule([c for c in ordered if c.info.serial], 1)
-    # Cases that may leave what no namespace holds come last, alone, in ID order: whatever
-    # the order of the others, none of them can meet it.
-    await state.schedule([c for c in selected if c.info.residue], 1)
-    summary = state.summary(time.monotonic() - started, [c.info for c in known])
-    state.emit(RunFinished(summary=summary))
-    return summary
+    finally:
+        close_reporters(reporters)
+
+
+async def _run_target(
+    target: Target[C],
+    selected: Sequence[C],
+    reporters: Sequence[Reporter],
+    schedule: Schedule,
+    expectations: Expectations | None,
+    known: Sequence[CaseInfo],
+) -> RunSummary:
+    started_wall, started = time.time(), time.monotonic()
+    begun: Started = await target.start()
+    try:
+        state = _Run(
+            target=target, schedule=schedule, reporters=reporters, expectations=expectations
+        )
+        state.emit(
+            RunStarted(
+                target=target.label,
+                started=started_wall,
+                options=begun.options,
+                server=begun.server,
+                cases=len(selected),
+            )
+        )
+        state.gate.set()
+        state.idle.set()
+        ordered = _ordered([c for c in selected if not c.info.residue], schedule)
+        await state.schedule_cases([c for c in ordered if not c.info.serial], schedule.jobs)
+        # Serial cases need global state: each runs alone.
+        await state.schedule_cases([c for c in ordered if c.info.serial], 1)
+        # Cases that may leave what no namespace holds come last, alone, in ID order: whatever
+        # the order of the others, none of them can meet it.
+        await state.schedule_cases([c for c in selected if c.info.residue], 1)
+        summary = summarize(
+            state.results,
+            duration=time.monotonic() - started,
+            latencies=begun.latencies,
+            vacuous=state.vacuous,
+            unknown_expectations=unknown_entries(expectations, known),
+            deaths=state.deaths,
+            not_run=state.not_run,
+        )
+        state.emit(RunFinished(summary=summary))
+        return summary
+    finally:
+        await target.close()
+
+
+async def run(
+    options: RunOptions,
+    reporters: Sequence[Reporter] = (),
+    *,
+    cases: Sequence[RegisteredCase] | None = None,
+) -> RunSummary:
+    """Server mode: probe the server at `options.target`, run the selected cases.
+
+    `cases` replaces the registry (tests); the --case/--section filters apply to it too.
+    Raises ExpectationError (bad expectations file), NoCasesSelected or TargetUnreachable before
+    any event is emitted. Reporters are closed in every case.
+    """
+    token = TARGET_TLS.set(options.tls)  # every connection of this run (spec 14.3)
+    try:
+        expectations = load_expectations(options.expectations) if options.expectations else None
+        known = list(cases) if cases is not None else all_cases()
+        selected = select_cases(known, globs=options.case_globs, sections=options.sections)
+        if not selected:
+            raise NoCasesSelected("no case matches the --case/--section filters")
+    except BaseException:
+        TARGET_TLS.reset(token)
+        close_reporters(reporters)
+        raise
+    try:
+        return await run_target(
+            ServerTarget(options),
+            selected,
+            reporters,
+            schedule=options.schedule,
+            expectations=expectations,
+            known=[c.info for c in known],
+        )
+    finally:
+        TARGET_TLS.reset(token)

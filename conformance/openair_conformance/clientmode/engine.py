@@ -1,8 +1,9 @@
 """The client-mode engine: probe the shim, run the selected scenarios, judge them, emit events.
 
-The same events as server mode (`RunStarted`, `CaseStarted`, `CaseFinished`, `RunFinished`) go
-to the same reporters, and a scenario's outcome becomes a `CaseResult` through the same
-`engine.judge`, so verdicts, reports and exit codes mean the same in both modes. The run's
+The scenarios run on the one engine (`engine.run_target`) over a `ShimTarget`: the same
+events as server mode (`RunStarted`, `CaseStarted`, `CaseFinished`, `RunFinished`) go to the
+same reporters, and a scenario's outcome becomes a `CaseResult` through the same verdict model
+(`verdicts`), so verdicts, summaries, reports and exit codes mean the same in both modes. The run's
 `ServerInfo` describes the library instead of a server: `server` is the shim's
 `library version` (the label of its column in a comparison page), `protocol` the shim protocol.
 """
@@ -13,32 +14,29 @@ import asyncio
 import math
 import secrets
 import shlex
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from openair_conformance.clientmode.runner import DEADLINE_S, LATENCY_MEASURE, ScenarioRun
+from openair_conformance.clientmode.runner import DEADLINE_S, ScenarioRun
 from openair_conformance.clientmode.scenario import Scenario, load_scenarios, select_scenarios
-from openair_conformance.engine import DEFAULT_FAIL_ON, EngineError, close_reporters, judge
+from openair_conformance.engine import close_reporters, run_target
 from openair_conformance.model import (
-    CaseFinished,
-    CaseResult,
-    CaseStarted,
-    Event,
     Fail,
     Reporter,
-    RunFinished,
-    RunStarted,
     RunSummary,
     ServerInfo,
     Verdict,
 )
+from openair_conformance.schedule import EngineError, Schedule
 from openair_conformance.shim.driver import ShimDriver, ShimError, ShimInfo
+from openair_conformance.targets import Started, Watch
+from openair_conformance.verdicts import DEFAULT_FAIL_ON, Attempt
 
 __all__ = [
     "ClientRunOptions",
     "NoScenariosSelected",
+    "ShimTarget",
     "ShimUnavailable",
     "probe_shim",
     "run_client",
@@ -100,32 +98,30 @@ async def probe_shim(options: ClientRunOptions) -> tuple[ShimInfo, float]:
     return info, driver.ready_after
 
 
-def _percentile(values: Sequence[float], fraction: float) -> float:
-    ordered = sorted(values)
-    return ordered[max(1, math.ceil(fraction * len(ordered))) - 1]
+class ShimTarget:
+    """A client library through its shim: each scenario starts its own peer and shim."""
 
+    def __init__(self, options: ClientRunOptions) -> None:
+        self.options = options
+        self.label = options.shim_text
 
-@dataclass(slots=True)
-class _ClientRun:
-    options: ClientRunOptions
-    reporters: Sequence[Reporter]
-    results: list[CaseResult] = field(default_factory=list)
+    async def start(self) -> Started:
+        info, ready_after = await probe_shim(self.options)
+        return Started(
+            server=ServerInfo(legacy=False, server=info.label, protocol=info.protocol),
+            options=_options_record(self.options, self.options.timeout_scale),
+            latencies=(("rtt_ms", 0.0), ("shim_ready_ms", ready_after * 1000)),
+        )
 
-    def emit(self, event: Event) -> None:
-        for reporter in self.reporters:
-            reporter.handle(event)
-
-    async def run_scenario(self, scenario: Scenario) -> None:
-        info = scenario.info
-        self.emit(CaseStarted(info=info))
+    async def attempt(self, case: Scenario, watch: Watch) -> Attempt:
         run = ScenarioRun(
-            scenario,
+            case,
             shim=self.options.shim,
             run_id=self.options.run_id,
             timeout_scale=self.options.timeout_scale,
             env=dict(self.options.env) or None,
         )
-        started = time.monotonic()
+        watch(run.trace.origin, lambda: run.trace.entries)
         outcome: BaseException | None = None
         try:
             await asyncio.wait_for(run.run(), _BUDGET_S * self.options.timeout_scale)
@@ -133,40 +129,23 @@ class _ClientRun:
             outcome = RuntimeError("the scenario did not finish within its budget")
         except Exception as exc:
             outcome = exc
-        verdict, message, expected = judge(info, outcome)
-        divergence = outcome.divergence if isinstance(outcome, Fail) else None
-        result = CaseResult(
-            info=info,
-            verdict=verdict,
-            message=message,
-            expected=expected or "\n".join(info.allowed),
+        return Attempt(
+            outcome=outcome,
             trace=run.trace.entries,
-            divergence=divergence,
-            duration=time.monotonic() - started,
-            repro=self.options.repro(info.id),
+            divergence=outcome.divergence if isinstance(outcome, Fail) else None,
             measurements=tuple(run.measurements),
+            repro=self.options.repro(case.info.id),
         )
-        self.results.append(result)
-        self.emit(CaseFinished(result=result))
 
-    def summary(self, duration: float, ready_ms: float) -> RunSummary:
-        counts = {v: 0 for v in Verdict}
-        for result in self.results:
-            counts[result.verdict] += 1
-        samples = [v for r in self.results for n, v in r.measurements if n == LATENCY_MEASURE]
-        latencies: list[tuple[str, float]] = [("rtt_ms", 0.0), ("shim_ready_ms", ready_ms)]
-        if samples:
-            latencies += [
-                ("post_to_wakeup_p50_ms", _percentile(samples, 0.50)),
-                ("post_to_wakeup_p99_ms", _percentile(samples, 0.99)),
-                ("post_to_wakeup_samples", float(len(samples))),
-            ]
-        return RunSummary(
-            counts=tuple((v, n) for v, n in counts.items() if n),
-            duration=duration,
-            latencies=tuple(latencies),
-            results=tuple(sorted(self.results, key=lambda r: r.info.id)),
-        )
+    async def alive(self) -> None:
+        """Each scenario has a shim and a peer of its own: there is nothing to die."""
+        return None
+
+    async def restart(self) -> None:
+        return None
+
+    async def close(self) -> None:
+        return None
 
 
 def _options_record(options: ClientRunOptions, scale: float) -> dict[str, str]:
@@ -196,37 +175,13 @@ async def run_client(
     any event. Reporters are closed in every case.
     """
     try:
-        return await _run(options, reporters, scenarios)
-    finally:
+        known = list(scenarios) if scenarios is not None else load_scenarios(options.scenario_dir)
+        selected = select_scenarios(known, options.scenario_globs)
+        if not selected:
+            raise NoScenariosSelected("no scenario matches the --scenario filters")
+    except BaseException:
         close_reporters(reporters)
-
-
-async def _run(
-    options: ClientRunOptions, reporters: Sequence[Reporter], scenarios: Sequence[Scenario] | None
-) -> RunSummary:
-    known = list(scenarios) if scenarios is not None else load_scenarios(options.scenario_dir)
-    selected = select_scenarios(known, options.scenario_globs)
-    if not selected:
-        raise NoScenariosSelected("no scenario matches the --scenario filters")
-    started_wall, started = time.time(), time.monotonic()
-    info, ready_after = await probe_shim(options)
-    state = _ClientRun(options=options, reporters=reporters)
-    state.emit(
-        RunStarted(
-            target=options.shim_text,
-            started=started_wall,
-            options=_options_record(options, options.timeout_scale),
-            server=ServerInfo(legacy=False, server=info.label, protocol=info.protocol),
-            cases=len(selected),
-        )
+        raise
+    return await run_target(
+        ShimTarget(options), selected, reporters, schedule=Schedule(jobs=options.jobs)
     )
-    window = asyncio.Semaphore(options.jobs)
-
-    async def limited(scenario: Scenario) -> None:
-        async with window:
-            await state.run_scenario(scenario)
-
-    await asyncio.gather(*(limited(s) for s in selected))
-    summary = state.summary(time.monotonic() - started, ready_after * 1000)
-    state.emit(RunFinished(summary=summary))
-    return summary

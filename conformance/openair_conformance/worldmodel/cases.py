@@ -28,7 +28,11 @@ from openair.worldmodel.wire import (
     encode_plan,
     encode_report,
 )
+from openair_conformance.model import CaseInfo, Level
 from openair_conformance.worldmodel.peer import CaseFailure, Peer
+
+#: The spec section of every world-model case (16, extension `worldmodel`).
+SECTION = "16"
 
 
 @dataclass(slots=True, kw_only=True)
@@ -74,6 +78,17 @@ class WmCase:
     title: str
     requirements: tuple[str, ...]
     fn: CaseFn
+
+    @property
+    def info(self) -> CaseInfo:
+        """The case as the engine and the reporters see it (spec section 16, MUST)."""
+        return CaseInfo(
+            id=self.id,
+            title=self.title,
+            section=SECTION,
+            requirements=self.requirements,
+            level=Level.MUST,
+        )
 
 
 CASES: list[WmCase] = []

@@ -14,13 +14,14 @@ from openair.client import Module, WakeupEvent
 from openair.content import RetrieveSpec, Trigger
 from openair.message import Message
 from openair.worldmodel.wire import TYPE_ACK, TYPE_REPORT, PlanAck, decode_ack
+from openair_conformance.model import Fail
 
 XSD = Path(__file__).resolve().parents[3] / "schemas" / "worldmodel.xsd"
 _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False)
 
 
-class CaseFailure(Exception):
-    """The implementation did not do what a requirement says."""
+class CaseFailure(Fail):
+    """The implementation did not do what a requirement says (judged FAIL, like any `Fail`)."""
 
 
 @dataclass(slots=True)

@@ -43,6 +43,7 @@ PSYSPEC = """<psySpec name="Cluster test" version="1.2">
   <whiteboard name="WB1" replicas="3"><streams><stream name="Stream1"/></streams></whiteboard>
   <whiteboard name="WB2" replicas="3"><streams><stream name="Stream2"/></streams></whiteboard>
   <whiteboard name="Small" maxcount="5" replicas="3"/>
+  <whiteboard name="Storm" maxcount="1000000" replicas="3"/>
   <whiteboard name="Vision" host="n3" replicas="1"/>
 </psySpec>
 """
@@ -155,11 +156,18 @@ class Cluster:
         _run("ip", "-n", ns, "link", "set", veth, "up")
 
     def cut(self, node: Node) -> None:
-        """Cut `node` off: its only link goes down (its nats-server and server stay up)."""
-        _run("ip", "-n", node.ns, "link", "set", node.veth, "down")
+        """Cut `node` off: the bridge's end of its link goes down (the node sees no carrier;
+        its nats-server and server stay up and reach each other on its own address)."""
+        _run("ip", "-n", self.bridge_ns, "link", "set", node.veth + "p", "down")
 
     def heal(self, node: Node) -> None:
-        _run("ip", "-n", node.ns, "link", "set", node.veth, "up")
+        _run("ip", "-n", self.bridge_ns, "link", "set", node.veth + "p", "up")
+
+    def restart(self, node: Node) -> None:
+        """Start a killed node again: its nats-server (same store), then its server."""
+        self.kill(node)
+        self.start_nats(node)
+        self.start_server(node)
 
     # -- processes -----------------------------------------------------------------------------
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import contextlib
 import logging
 import struct
 import threading
@@ -42,6 +43,7 @@ log = logging.getLogger("openair.cluster")
 _T = TypeVar("_T")
 _LEN = struct.Struct(">I")
 _PREFIX = "openair.wb."
+_WATCH_S = 1.0  # how often a node compares what it read with each stream's end
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,6 +118,8 @@ class _Board:
     name: str
     pending: deque[Message] = field(default_factory=deque)
     through: int = 0  # the highest stream sequence received
+    stalled_at: int = -1  # `through` when the stream was last seen ahead of it
+    sub: Any = None  # the consumer's subscription
     skipped: int = 0  # payloads that did not decode
 
 
@@ -171,7 +175,6 @@ class ClusterStore:
 
     async def _connect(self, config: ServerConfig) -> None:
         import nats
-        from nats.js.api import DeliverPolicy
 
         self._nc = await nats.connect(
             servers=list(self.spec.urls),
@@ -185,15 +188,57 @@ class ClusterStore:
         for wb in config.whiteboards:
             await self._ensure_stream(wb)
             board = self._boards[wb.name] = _Board(wb.name)
-            await self._js.subscribe(
-                subject(wb.name),
-                stream=stream_name(wb.name),
-                ordered_consumer=True,
-                deliver_policy=DeliverPolicy.ALL,
-                cb=self._receiver(board),
-                pending_msgs_limit=-1,
-                pending_bytes_limit=-1,
-            )
+            await self._subscribe(board, 1)
+        self._spawn(self._watch())
+
+    async def _subscribe(self, board: _Board, start: int) -> None:
+        """Read the whiteboard's stream in order from sequence `start` (an ordered consumer)."""
+        from nats.js.api import ConsumerConfig, DeliverPolicy
+
+        if board.sub is not None:
+            with contextlib.suppress(Exception):
+                await board.sub.unsubscribe()
+        board.sub = await self._js.subscribe(
+            subject(board.name),
+            stream=stream_name(board.name),
+            ordered_consumer=True,
+            config=ConsumerConfig(
+                deliver_policy=DeliverPolicy.BY_START_SEQUENCE, opt_start_seq=start
+            ),
+            cb=self._receiver(board),
+            pending_msgs_limit=-1,
+            pending_bytes_limit=-1,
+        )
+
+    async def _watch(self) -> None:
+        """Restart a consumer that stopped short of its stream's end (OA-CLU-4, OA-CLU-7).
+
+        An ordered consumer lives on one server; when that server dies the client is meant to
+        recreate it, but a node must not depend on that: a board whose stream is ahead of what
+        it received, with no progress over two checks, is read again from where it stopped.
+        """
+        while True:
+            await asyncio.sleep(_WATCH_S)
+            for board in list(self._boards.values()):
+                try:
+                    info = await self._js.stream_info(stream_name(board.name))
+                except Exception:  # the store is unreachable: look again later
+                    continue
+                with self._cond:
+                    through = board.through
+                behind = int(info.state.last_seq or 0) > through
+                if behind and board.stalled_at == through:
+                    log.warning(
+                        "event=cluster_resubscribe whiteboard=%s from=%d", board.name, through + 1
+                    )
+                    with contextlib.suppress(Exception):
+                        await self._subscribe(board, through + 1)
+                board.stalled_at = through if behind else -1
+
+    def _spawn(self, coro: Coroutine[Any, Any, None]) -> None:
+        task = asyncio.get_running_loop().create_task(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
 
     async def _ensure_stream(self, wb: WhiteboardConfig) -> None:
         """Create the whiteboard's stream, or bring its limits in line with the psySpec."""
@@ -222,6 +267,8 @@ class ClusterStore:
     def _receiver(self, board: _Board) -> Callable[[Any], Coroutine[Any, Any, None]]:
         async def received(msg: Any) -> None:
             seq = int(msg.metadata.sequence.stream)
+            if seq <= board.through:
+                return  # a consumer read again from an earlier point: held already
             copy = decode_copy(msg.data, seq)
             with self._cond:
                 if copy is None:
@@ -312,9 +359,7 @@ class ClusterStore:
             loop.call_soon_threadsafe(self._flush_soon)
 
     def _flush_soon(self) -> None:
-        task = asyncio.get_running_loop().create_task(self._flush())
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
+        self._spawn(self._flush())
 
     async def _flush(self) -> None:
         """Send what the outbox holds, in order; each ack settles its item (client thread)."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import contextlib
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from openair.content import ContentMatch, RetrieveSpec
@@ -26,7 +26,15 @@ from openair.server.config import DEFAULT_MAXCOUNT, DEFAULT_WB_PRIORITY, Whitebo
 from openair.server.queues import item_bytes
 from openair.server.store import HistoryStore, SequencedStore
 
-__all__ = ["Whiteboard", "content_glob", "derive", "text_bytes", "text_of", "xml_text_of"]
+__all__ = [
+    "Whiteboard",
+    "content_glob",
+    "derive",
+    "select",
+    "text_bytes",
+    "text_of",
+    "xml_text_of",
+]
 
 _NS_PER_MS = 1_000_000
 # Evict from the store in batches: memory is exact (OA-WB-6), the store may lag a little, and
@@ -250,7 +258,7 @@ class Whiteboard:
         """
         wbid = copy.wbid or 0
         if wbid < self._next_wbid:
-            return None
+            return self._adopt_late(copy, wbid)
         received = copy.received
         if received is not None and received.ms < self._last_ns // _NS_PER_MS:
             copy = derive(copy, received=ms_time(self._last_ns))
@@ -264,6 +272,27 @@ class Whiteboard:
             self._evict()
         return copy
 
+    def _adopt_late(self, copy: Message, wbid: int) -> Message | None:
+        """Keep a copy that arrives after a later one (the store was slow to hand it over).
+
+        It goes into its place by wbid; a repeat, or a copy older than all held, is skipped.
+        """
+        messages = self._messages
+        pos = len(messages)
+        while pos and (messages[pos - 1].wbid or 0) > wbid:
+            pos -= 1
+        if pos == 0 or messages[pos - 1].wbid == wbid:
+            return None  # older than every copy held (evicted already), or held already
+        neighbour = messages[pos - 1].received
+        if neighbour is not None and (copy.received is None or copy.received.ms < neighbour.ms):
+            copy = derive(copy, received=neighbour)  # OA-WB-12 among its neighbours
+        messages.insert(pos, copy)
+        self.bytes += item_bytes(copy, None)
+        self.stored += 1
+        if len(messages) > self.maxcount or (self.max_bytes and self.bytes > self.max_bytes):
+            self._evict()
+        return copy
+
     def retrieve(
         self, spec: RetrieveSpec, *, now_ns: int, limit: int = 0, max_bytes: int = 0
     ) -> list[Message]:
@@ -273,28 +302,11 @@ class Whiteboard:
         `limit` caps the results below `latest`; with `max_bytes` the scan stops at the first
         result that takes their `text_bytes` past it (that one included: the caller sees it).
         """
-        accept = _criteria(spec)
-        lower_us = _lower_bound_us(spec, now_ns)
-        upper_us = spec.until_time.us if spec.until_time is not None else None
-        latest = spec.latest  # OA-RET-4: 0 = no limit
-        limit = min(latest, limit) if latest and limit else latest or limit
-        size = 0
-        found: list[Message] = []
-        for msg in reversed(self._messages):
-            received_us = msg.received.us if msg.received is not None else 0
-            if lower_us is not None and received_us < lower_us:
-                break  # receivedTime falls with wbid (OA-WB-12): nothing older can qualify
-            if upper_us is not None and received_us > upper_us:
-                continue  # OA-RET-9: untilTime is an inclusive upper bound
-            if accept(msg):
-                found.append(msg)
-                if len(found) == limit:
-                    break
-                if max_bytes:
-                    size += text_bytes(msg)
-                    if size > max_bytes:
-                        break
-        return found
+        return select(self._messages, spec, now_ns=now_ns, limit=limit, max_bytes=max_bytes)
+
+    def snapshot(self) -> tuple[Message, ...]:
+        """The stored copies now, oldest first: `select` reads them on any thread (issue #19)."""
+        return tuple(self._messages)
 
     def _reload(self, history: list[Message]) -> None:
         """Take over the store's history: keep the newest maxcount, continue wbid (OA-WB-9)."""
@@ -341,6 +353,42 @@ class Whiteboard:
             return
         self._store_evicted_through = through
         self._lag_bytes = 0
+
+
+def select(
+    messages: Sequence[Message],
+    spec: RetrieveSpec,
+    *,
+    now_ns: int,
+    limit: int = 0,
+    max_bytes: int = 0,
+) -> list[Message]:
+    """Return the copies of `messages` (oldest first) that `spec` selects, newest first.
+
+    What `Whiteboard.retrieve` does, on a snapshot as well as on the live history.
+    """
+    accept = _criteria(spec)
+    lower_us = _lower_bound_us(spec, now_ns)
+    upper_us = spec.until_time.us if spec.until_time is not None else None
+    latest = spec.latest  # OA-RET-4: 0 = no limit
+    limit = min(latest, limit) if latest and limit else latest or limit
+    size = 0
+    found: list[Message] = []
+    for msg in reversed(messages):
+        received_us = msg.received.us if msg.received is not None else 0
+        if lower_us is not None and received_us < lower_us:
+            break  # receivedTime falls with wbid (OA-WB-12): nothing older can qualify
+        if upper_us is not None and received_us > upper_us:
+            continue  # OA-RET-9: untilTime is an inclusive upper bound
+        if accept(msg):
+            found.append(msg)
+            if len(found) == limit:
+                break
+            if max_bytes:
+                size += text_bytes(msg)
+                if size > max_bytes:
+                    break
+    return found
 
 
 def _lower_bound_us(spec: RetrieveSpec, now_ns: int) -> int | None:

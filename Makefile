@@ -11,7 +11,7 @@ PYTEST_ARGS ?=
 
 .PHONY: all venv serve test test-python lint typecheck generate check-generated bench fuzz clean deps-browser
 .PHONY: demo-worldmodel mutation faults
-.PHONY: stress
+.PHONY: stress deps-cluster
 
 all: test
 
@@ -59,8 +59,12 @@ deps-browser:
 		$(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y chromium chromium-driver graphviz; \
 	fi
 
-test-python: $(STAMP) deps-browser
-	OPENAIR_REQUIRE_BINDINGS=1 OPENAIR_REQUIRE_BROWSER=1 $(VENV)/bin/pytest -m "not fuzz" $(PYTEST_ARGS)
+## The cluster tests (issue 22) run nats-server in network namespaces: Debian's package.
+deps-cluster:
+	@command -v nats-server >/dev/null || { $(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y nats-server; }
+
+test-python: $(STAMP) deps-browser deps-cluster
+	OPENAIR_REQUIRE_BINDINGS=1 OPENAIR_REQUIRE_BROWSER=1 OPENAIR_REQUIRE_CLUSTER=1 $(VENV)/bin/pytest -m "not fuzz" $(PYTEST_ARGS)
 
 ## Install what is needed and pass every test.
 test: check-generated lint typecheck test-cpp test-java test-python

@@ -92,8 +92,6 @@ def test_kill_9_during_a_post_storm_loses_nothing_acknowledged(cluster: Cluster)
             await c.connect()
         acked: list[str] = []
         after_kill: list[str] = []
-        errors: list[str] = []
-        t0 = time.monotonic()
         killed = asyncio.Event()
         stop = asyncio.Event()
 

@@ -65,8 +65,16 @@ async def _peak_rss(pid: int, peak: list[float], stop: asyncio.Event) -> None:
 
 
 async def _one(
-    name: str, attack: Attack, budget: int, proc: subprocess.Popen[str], canary: Canary
+    name: str,
+    attack: Attack,
+    budget: int,
+    proc: subprocess.Popen[str],
+    canary: Canary,
+    setup: Attack | None,
 ) -> bool:
+    if setup is not None and not (await setup(canary.port)).held:
+        print(f"broken    {name:26} its setup failed", flush=True)
+        return False
     await asyncio.sleep(QUIET_S)  # the canary alone: the quiet series of this attack
     began = time.monotonic()
     quiet = canary.before(began - QUIET_S, began)
@@ -111,12 +119,12 @@ async def _main(filters: Sequence[str]) -> int:
     canary.start()
     ok = True
     try:
-        for name, item, attack, budget in chosen:
+        for name, item, attack, budget, setup in chosen:
             if proc.poll() is not None:
                 print(f"broken    {name:26} (item {item}) the server is gone")
                 ok = False
                 continue
-            ok &= await _one(f"{name} (#{item})", attack, budget, proc, canary)
+            ok &= await _one(f"{name} (#{item})", attack, budget, proc, canary, setup)
     finally:
         canary.stop()
         proc.terminate()

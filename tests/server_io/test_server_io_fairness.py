@@ -38,14 +38,14 @@ def _retrieve(content: str = _ALL) -> Message:
 
 
 def test_the_prepared_reply_is_the_one_the_lxml_writer_sends() -> None:
-    board = _board(300, KIB)
+    board = _board(600, KIB)
     prepared = prepare_retrieve(_retrieve(), board, {"WB1": board}, now_ns=5, max_xml=1 << 24)
-    assert prepared.large and len(prepared.results) == 300
+    assert prepared.large and len(prepared.results()) == 600
     reply, wire = prepared.build()
     assert reply.type == "AIR.Retrieve.Success"
-    assert reply.content == encode_message_collection(prepared.results)  # OA-RET-7
+    assert reply.content == encode_message_collection(prepared.results())  # OA-RET-7
     assert wire == encode_frame(to_frame(reply))  # the spliced frame is the written one
-    assert [m.type for m in parse_message_collection(reply.content)][:2] == ["Test.299", "Test.298"]
+    assert [m.type for m in parse_message_collection(reply.content)][:2] == ["Test.599", "Test.598"]
 
 
 @pytest.mark.parametrize(
@@ -61,8 +61,17 @@ def test_small_and_failing_retrieves_are_not_deferred(content: str, code: str) -
     assert code in direct.content
 
 
+def test_the_scan_reads_the_copies_of_when_the_request_came() -> None:
+    board = _board(600, 10)
+    prepared = prepare_retrieve(_retrieve(), board, {"WB1": board}, now_ns=5, max_xml=1 << 24)
+    for i in range(600, 700):  # stored (and the oldest evicted) before the worker scans
+        board.store_post(Message(type=f"Test.{i}", to="WB1", sender="P"), i)
+    assert [m.type for m in prepared.results()][:1] == ["Test.599"]  # the loop's snapshot
+    assert len(prepared.results()) == 600
+
+
 def test_a_reply_past_max_frame_xml_is_limit_exceeded_when_written() -> None:
-    board = _board(300, KIB)
+    board = _board(600, KIB)
     prepared = prepare_retrieve(_retrieve(), board, {"WB1": board}, now_ns=5, max_xml=200 * KIB)
     reply, wire = prepared.build()
     assert reply.type == "AIR.Retrieve.Failed" and "LIMIT_EXCEEDED" in reply.content
@@ -86,9 +95,9 @@ def test_other_clients_are_served_while_a_large_retrieve_reply_is_written(
     async def body() -> None:
         server = await serving()
         poster, reader, other = [await Raw.open(server.port) for _ in range(3)]
-        for i in range(300):  # 300 KiB of results: a reply written off the loop
+        for i in range(600):  # 600 copies to scan: a reply chosen and written off the loop
             poster.send(Message(type=f"Test.{i}", to="WB1", sender="P", content="x" * KIB))
-        for _ in range(300):
+        for _ in range(600):
             assert (await poster.recv()) is not None
         retrieve = _retrieve()
         reader.send(retrieve)
@@ -98,7 +107,7 @@ def test_other_clients_are_served_while_a_large_retrieve_reply_is_written(
         first, second = await reader.recv(), await reader.recv()
         assert first is not None and first.type == "AIR.Retrieve.Success"
         assert (
-            first.isresponse == retrieve.id and len(parse_message_collection(first.content)) == 300
+            first.isresponse == retrieve.id and len(parse_message_collection(first.content)) == 600
         )
         assert second is not None and second.type == "PING_SUCCESS"  # OA-SESS-2
         for raw in (poster, reader, other):

@@ -13,14 +13,25 @@ Sans-I/O apart from the log: time comes in as seconds from the caller's clock.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import errno
 import logging
+import os
+import sys
+import threading
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 from openair.server.config import ServerLimits
 
-__all__ = ["Budget", "RateLimitedLog", "quiet_accept_errors", "return_large_buffers"]
+__all__ = [
+    "Budget",
+    "RateLimitedLog",
+    "off_loop_executor",
+    "quiet_accept_errors",
+    "return_large_buffers",
+]
 
 log = logging.getLogger("openair.server")
 
@@ -160,3 +171,37 @@ def return_large_buffers() -> bool:
         return ok and int(libc.mallopt(_M_TRIM_THRESHOLD, 4 * _MMAP_FROM)) == 1
     except (OSError, AttributeError):
         return False
+
+
+_OFF_LOOP: list[ThreadPoolExecutor] = []
+_SWITCH_S = 0.0005
+_WORKER_NICE = 10
+
+
+def off_loop_executor() -> ThreadPoolExecutor:
+    """The one worker thread that decodes large requests and writes large replies (issue #19).
+
+    One, not one per core: the writing holds the interpreter lock most of the time, and the
+    event loop waits for that lock behind every thread that wants it (up to the 5 ms switch
+    interval each), so each more worker lengthens every other client's turn; one also bounds
+    the memory of the large requests and replies in progress to one at a time.
+    """
+    if not _OFF_LOOP:
+        # The loop waits for the lock at most this long after asking (5 ms by default): the
+        # worker's share of a second barely changes, every other client's wait falls.
+        sys.setswitchinterval(_SWITCH_S)
+        worker = ThreadPoolExecutor(
+            max_workers=1, thread_name_prefix="openair-large", initializer=_yield_to_the_loop
+        )
+        _OFF_LOOP.append(worker)
+    return _OFF_LOOP[0]
+
+
+def _yield_to_the_loop() -> None:
+    """Lower the worker thread's scheduling priority (Linux: per thread) below the loop's.
+
+    On a busy machine the loop thread then gets the processor first when both can run; the
+    worker still runs whenever the loop waits. Where the system refuses, nothing changes.
+    """
+    with contextlib.suppress(OSError, AttributeError):
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), _WORKER_NICE)

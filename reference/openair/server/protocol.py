@@ -364,7 +364,7 @@ class ServerConnection(asyncio.Protocol):
         self._decoding = max(len(frame.xml), 1)
         loop = asyncio.get_running_loop()
         future = loop.run_in_executor(
-            None, decode_with_lxml, frame.xml, frame.chunks, self._xml_limits
+            off_loop_executor(), decode_with_lxml, frame.xml, frame.chunks, self._xml_limits
         )
         future.add_done_callback(lambda done: self._decoded(done, frame, received_ns))
 
@@ -404,7 +404,7 @@ class ServerConnection(asyncio.Protocol):
         A retrieve of thousands of messages takes a second to write (issue #19, item 6).
         """
         self._decoding = 1
-        future = asyncio.get_running_loop().run_in_executor(None, later)
+        future = asyncio.get_running_loop().run_in_executor(off_loop_executor(), later)
         future.add_done_callback(self._replied)
 
     def _replied(self, done: asyncio.Future[tuple[Message, bytes | None]]) -> None:

@@ -24,7 +24,7 @@ from openair.message import Message
 from openair.objects import parse_content
 from openair.registration import parse_retrieve_element, parse_retrieves
 from openair.server.commands import error_reply, reply
-from openair.server.whiteboard import Whiteboard, text_bytes
+from openair.server.whiteboard import Whiteboard, select, text_bytes
 from openair.wakeup import collection_xml, frame_bytes
 from openair.xmlsafe import local_name
 
@@ -42,8 +42,8 @@ RETRIEVE = "AIR.Retrieve"
 RETRIEVES = "AIR.Retrieves"
 # The envelope around the collection in a reply: type, ids, names and times; generous.
 _ENVELOPE_ALLOWANCE = 1024
-# Results of at least this many text bytes make a reply that is written on a worker thread.
-_LARGE_BYTES = 256 * 1024
+# Retrieves that scan at least this many stored copies are chosen and written on a worker.
+_LARGE_SCAN = 512
 
 
 def parse_request(msg: Message) -> tuple[RetrieveSpec, ...]:
@@ -94,15 +94,33 @@ class PreparedRetrieve:
     request: Message
     sender: str
     now_ns: int
-    results: tuple[Message, ...] = ()
+    # Each retrieve with the stored copies of its whiteboard when the request came (a snapshot:
+    # the scan reads it on a worker thread while the loop stores and evicts).
+    scans: tuple[tuple[RetrieveSpec, tuple[Message, ...]], ...] = ()
     error: OpenAIRError | None = None
     max_xml: int = 0
     max_binary: int = 0
 
     @property
     def large(self) -> bool:
-        """Whether building the reply is worth a worker thread."""
-        return self.error is None and sum(text_bytes(m) for m in self.results) >= _LARGE_BYTES
+        """Whether choosing and writing the results is worth a worker thread."""
+        return self.error is None and sum(len(copies) for _, copies in self.scans) >= _LARGE_SCAN
+
+    def results(self) -> list[Message]:
+        """Choose the results: OA-RET-12, in the order of the retrieves, each newest first.
+
+        The scan stops once the results alone pass max-frame-xml: such a reply is refused
+        anyway (OA-RET-15), and a huge board must not be read to its end (issue #19).
+        """
+        results: list[Message] = []
+        for spec, copies in self.scans:
+            results.extend(select(copies, spec, now_ns=self.now_ns, max_bytes=self.max_xml))
+            if sum(text_bytes(m) for m in results) > self.max_xml:
+                raise LimitExceededError(
+                    f"the results exceed max-frame-xml ({self.max_xml} bytes);"
+                    " ask for fewer with latest"
+                )
+        return results
 
     def build(self) -> tuple[Message, bytes | None]:
         """Return the reply and its Message frame (None: the sender encodes it as usual)."""
@@ -131,13 +149,13 @@ class PreparedRetrieve:
     def _content(self) -> tuple[str, tuple[bytes, ...]]:
         if self.error is not None:
             raise self.error
-        results = self.results
+        results = self.results()
         content = collection_xml(results)  # OA-RET-7: what encode_message_collection writes
         if len(content.encode("utf-8")) + _ENVELOPE_ALLOWANCE > self.max_xml:  # OA-RET-15
             raise LimitExceededError(
                 f"{len(results)} results exceed max-frame-xml ({self.max_xml} bytes)"
             )
-        chunks = chunks_of(list(results))  # OA-RET-19, OA-MSG-21: in the order of the results
+        chunks = chunks_of(results)  # OA-RET-19, OA-MSG-21: in the order of the results
         if sum(len(chunk) for chunk in chunks) > self.max_binary:  # OA-RET-15
             raise LimitExceededError(
                 f"the attachments of {len(results)} results exceed max-frame-binary"
@@ -155,27 +173,27 @@ def prepare_retrieve(
     max_xml: int,
     max_binary: int = 64 * 1024 * 1024,
 ) -> PreparedRetrieve:
-    """Choose the results of an AIR.Retrieve / AIR.Retrieves (spec 9.1–9.4), not yet written."""
+    """Read an AIR.Retrieve / AIR.Retrieves (spec 9.1–9.4) and take what its retrieves scan.
+
+    Cheap on the loop: the request is parsed and each whiteboard's copies are snapshot; the
+    scan and the writing happen in `build`, wherever it runs.
+    """
     prepared = PreparedRetrieve(
         request=msg, sender=addressee.name, now_ns=now_ns, max_xml=max_xml, max_binary=max_binary
     )
+    snapshots: dict[str, tuple[Message, ...]] = {}
+    scans: list[tuple[RetrieveSpec, tuple[Message, ...]]] = []
     try:
-        specs = parse_request(msg)
-        results: list[Message] = []
-        for spec in specs:  # OA-RET-12: concatenated in the order of the retrieves
+        for spec in parse_request(msg):  # OA-RET-12: concatenated in the order of the retrieves
             board = whiteboards.get(spec.whiteboard or addressee.name)  # OA-RET-2, OA-WB-10
             if board is None:
                 raise WhiteboardUnknownError(spec.whiteboard)  # OA-RET-11
-            # The scan stops once the results alone pass max-frame-xml: such a reply is
-            # refused anyway (OA-RET-15), and a huge board must not hold the loop (issue #19).
-            results.extend(board.retrieve(spec, now_ns=now_ns, max_bytes=max_xml))
-            if sum(text_bytes(m) for m in results) > max_xml:
-                raise LimitExceededError(
-                    f"the results exceed max-frame-xml ({max_xml} bytes); ask for fewer with latest"
-                )
+            if board.name not in snapshots:
+                snapshots[board.name] = board.snapshot()
+            scans.append((spec, snapshots[board.name]))
     except OpenAIRError as err:
         return dataclasses.replace(prepared, error=err)
-    return dataclasses.replace(prepared, results=tuple(results))
+    return dataclasses.replace(prepared, scans=tuple(scans))
 
 
 def registration_results(

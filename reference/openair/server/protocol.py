@@ -43,7 +43,7 @@ from openair.errors import (
 )
 from openair.framing import Frame, FrameReader, FrameTag, encode_frame, encode_frame_parts
 from openair.message import Message
-from openair.server.budgets import Budget
+from openair.server.budgets import Budget, off_loop_executor
 from openair.server.config import ServerLimits
 from openair.server.datapath import DataPath, datapath_of
 from openair.server.router import Outcome

@@ -41,6 +41,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--report", type=Path, default=ROOT / "test-artifacts" / "mutation.md")
     p.add_argument("--explanations", type=Path, default=EXPLANATIONS)
     p.add_argument("--report-only", action="store_true", help="run nothing, write the report")
+    p.add_argument("--note", action="append", default=[], help="a line for the report's header")
     p.add_argument(
         "--rejudge-survivors",
         action="store_true",
@@ -90,6 +91,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"mutant timeout {args.timeout:g} s; {ran}"
         + (f"; sample {args.sample} per module, seed {args.seed!r}." if args.sample else "."),
     ]
+    header += args.note
     if campaign.earlier:
         header.append(
             "Changed since their campaign (results of the earlier version, kept beside its "

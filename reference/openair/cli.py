@@ -1,20 +1,24 @@
 """The ``openair`` command line (one click group; each command is a thin wrapper).
 
 Commands live beside the code they wrap: the client commands in ``openair.client.cli_client``,
-``serve`` in ``openair.server.cli_serve``, ``conform`` in ``openair_conformance.cli``. This module
-only names them; a command's module is imported when the command runs (or when ``--help`` lists
-it), so ``openair --version`` imports nothing else and a command whose optional dependency is
-missing says which extra to install instead of failing with a traceback.
+``serve`` in ``openair.server.cli_serve``. This module only names them; a command's module is
+imported when the command runs (or when ``--help`` lists it), so ``openair --version`` imports
+nothing else and a command whose optional dependency is missing says which extra to install
+instead of failing with a traceback. Commands of other installed packages (the conformance
+suite's ``conform``, ``conform-client``, ``conform-worldmodel``) are found through the entry point
+group ``openair.commands`` (pyproject.toml): the reference package never imports the suite that
+judges it.
 """
 
 from __future__ import annotations
 
 import importlib
+from importlib.metadata import entry_points
 from typing import Any, NoReturn
 
 import click
 
-__all__ = ["OPTIONAL", "main", "missing_extra"]
+__all__ = ["ENTRY_POINT_GROUP", "OPTIONAL", "main", "missing_extra"]
 
 #: Command name -> "module:attribute".
 _COMMANDS = {
@@ -23,15 +27,23 @@ _COMMANDS = {
     "watch": "openair.client.cli_client:watch",
     "retrieve": "openair.client.cli_client:retrieve",
     "ping": "openair.client.cli_client:ping",
-    "conform": "openair_conformance.cli:conform",
-    "conform-client": "openair_conformance.client_cli:conform_client",
-    "conform-worldmodel": "openair_conformance.worldmodel.cli:conform_worldmodel",
     "ontology": "openair.ontology.cli_ontology:ontology",
     "stream": "openair.client.cli_stream:stream",
     "record": "openair.recording.cli_recording:record",
     "replay": "openair.recording.cli_recording:replay",
     "monitor": "openair.recording.cli_recording:monitor",
 }
+
+#: The entry point group other packages declare their `openair` commands in.
+ENTRY_POINT_GROUP = "openair.commands"
+
+
+def _targets() -> dict[str, str]:
+    """Every command name -> "module:attribute": this package's, then the entry points'."""
+    found = {ep.name: ep.value for ep in entry_points(group=ENTRY_POINT_GROUP)}
+    found.update(_COMMANDS)  # a plug-in cannot replace a command of the kit itself
+    return found
+
 
 #: Optional top-level packages -> the extra of openair-kit that installs them (pyproject.toml).
 OPTIONAL = {"hypothesis": "fuzz", "xmlschema": "worldmodel", "selenium": "browser"}
@@ -68,7 +80,7 @@ def _unavailable(name: str, package: str, extra: str) -> click.Command:
 
 def _load(name: str) -> click.Command | None:
     """Import the command `name` (a stand-in when an optional dependency is missing)."""
-    target = _COMMANDS.get(name)
+    target = _targets().get(name)
     if target is None:
         return None
     module_name, _, attr = target.partition(":")
@@ -103,7 +115,7 @@ class _LazyGroup(click.Group):
         self.commands = _LazyCommands()
 
     def list_commands(self, ctx: click.Context) -> list[str]:
-        return sorted(_COMMANDS)
+        return sorted(_targets())
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         try:

@@ -21,6 +21,7 @@ from typing import IO, Any, TypeVar
 
 import click
 
+from openair.address import parse_server
 from openair.client.module import FailedReplyError, Module, WakeupEvent
 from openair.content import RetrieveSpec, Trigger
 from openair.errors import (
@@ -48,17 +49,6 @@ SHOWN_CHARS = 200
 _TIMEOUT_KEY = "openair.timeout"
 
 _T = TypeVar("_T")
-
-
-def parse_server(value: str) -> tuple[str, int]:
-    """Split `HOST:PORT` (also `HOST` or `:PORT`; default 127.0.0.1:10000)."""
-    host, sep, port_text = value.rpartition(":")
-    if not sep:
-        host, port_text = value, "10000"
-    host = host.strip("[]") or "127.0.0.1"
-    if not port_text.isdigit() or not 0 < int(port_text) < 65536:
-        raise ValueError(f"not a port: {port_text!r}")
-    return host, int(port_text)
 
 
 def _server(ctx: click.Context, param: click.Parameter, value: str) -> tuple[str, int]:

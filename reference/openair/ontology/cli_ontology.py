@@ -17,7 +17,7 @@ from pathlib import Path
 
 import click
 
-from openair.client.cli_client import parse_server
+from openair.address import parse_server
 from openair.ontology.history import (
     History,
     HistoryConnectError,

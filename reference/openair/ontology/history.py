@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from openair.client.cli_client import parse_server
+from openair.address import parse_server
 from openair.client.module import FailedReplyError, Module
 from openair.codec import decode_message
 from openair.content import RetrieveSpec

@@ -19,7 +19,8 @@ from pathlib import Path
 
 import click
 
-from openair.client.cli_client import CliModule, _run, parse_server
+from openair.address import parse_server
+from openair.client.cli_client import CliModule, _run
 from openair.errors import OpenAIRError
 from openair.recording.fileformat import MessageRecord, Record, RecordingReader
 from openair.recording.recorder import Recorder, RecordOptions

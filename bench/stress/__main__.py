@@ -22,7 +22,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from bench.stress.attacks import ATTACKS, Attack, Figures
+from bench.stress.attacks import ATTACKS, RETENTION_MS, Attack, Figures
 from bench.stress.wire import Canary, p99
 
 QUIET_S = 1.5
@@ -33,6 +33,7 @@ BUDGETS = (
     "--max-history-bytes=67108864",
     "--max-partial-bytes=67108864",
     "--max-wakeup-result-bytes=4194304",
+    f"--module-retention-ms={RETENTION_MS}",
 )
 
 

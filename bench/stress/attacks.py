@@ -225,6 +225,80 @@ async def _http_status(port: int, host: bytes) -> str:
     return line.split(b" ")[1].decode() if line else "closed"
 
 
+async def create_streams(port: int) -> Figures:
+    """Item 3: 200 run-time streams asked for, half of them of a terabyte.
+
+    Held when no more than max-created-streams (64 by default) were made, and none whose
+    maxsize passes max-created-stream-bytes.
+    """
+    raw = await Raw.open(port)
+    made = refused_big = 0
+    try:
+        for i in range(200):
+            size = 1_000_000 if i % 2 else 1  # MiB: a terabyte, or one MiB
+            content = f'<stream name="StressStream{i}" whiteboard="WB1" maxsize="{size}"/>'
+            reply = await raw.request(
+                Message(
+                    type="Psyclone.System.Create.Stream",
+                    sender="StreamMaker",
+                    to="Psyclone",
+                    content=content,
+                    content_is_xml=True,
+                    language="xml",
+                )
+            )
+            accepted = reply is not None and reply.type == "RECEIVE_ACCEPT"
+            made += accepted
+            refused_big += bool(i % 2) and not accepted
+    finally:
+        raw.close()
+    fig = Figures(held=made <= 64 and refused_big == 100)
+    fig.notes = {"created": made, "terabyte_refused": refused_big}
+    return fig
+
+
+async def history_bytes(port: int) -> Figures:
+    """Item 4: 200 posts of 1 MiB to a whiteboard nobody subscribes to (history by bytes)."""
+    raw = await Raw.open(port)
+    body = "x" * MIB
+    acked = 0
+    try:
+        for start in range(0, 200, 20):
+            for i in range(start, start + 20):
+                raw.send(Message(type=f"Hist.Big.{i}", to="WB2", sender="Historian", content=body))
+            for _ in range(20):
+                reply = await raw.recv()
+                acked += reply is not None and reply.type == "RECEIVE_ACCEPT"
+    finally:
+        raw.close()
+    kept = int((await status(port)).get("whiteboards.WB2.count", "0"))
+    fig = Figures(held=acked == 200 and kept <= 64)  # 64 MiB of history: 63 or 64 of them
+    fig.notes = {"acked": acked, "kept": kept}
+    return fig
+
+
+async def forgotten_names(port: int) -> Figures:
+    """Item 7: 3 000 module names bound once and gone; past the retention they are forgotten."""
+    for start in range(0, 3000, 100):
+        raws = [await Raw.open(port) for _ in range(100)]
+        for i, raw in enumerate(raws):
+            raw.send(Message(type="BIND_NOLISTEN", to="CNS", sender=f"Gone{start + i}"))
+            raw.send(Message(type="PING", to="CNS", sender=f"Gone{start + i}"))  # counted
+        for raw in raws:
+            await raw.recv()
+            await raw.recv()
+            raw.close()
+    during = len({k.split(".")[1] for k in await status(port) if k.startswith("modules.Gone")})
+    await asyncio.sleep(RETENTION_MS / 1000 * 1.5)  # the sweep may run 25 % late
+    after = {k.split(".")[1] for k in await status(port) if k.startswith("modules.Gone")}
+    fig = Figures(held=not after)  # those seen before may be fewer: the first go during
+    fig.notes = {"names_before": during, "names_after_retention": len(after)}
+    return fig
+
+
+#: The stress server's --module-retention-ms (item 7 waits for it).
+RETENTION_MS = 2000
+
 Attack = Callable[[int], Awaitable[Figures]]
 
 #: (name, issue item, attack, budget in MiB the server's growth is judged against, setup run
@@ -237,6 +311,10 @@ ATTACKS: tuple[tuple[str, str, Attack, int, Attack | None], ...] = (
     ("big-retrieves", "6", big_retrieves, 16 * 10, fill_board),
     ("connection-flood", "5", connection_flood, 64, None),
     ("slowloris-partial-frames", "5", slowloris, 64, None),
+    ("create-streams", "3", create_streams, 16, None),
+    # history + the monitor's ring + the router's cache of encoded copies
+    ("history-bytes", "4", history_bytes, 64 + 32 + 16, None),
+    ("forgotten-names", "7", forgotten_names, 32, None),
     ("char-refs-16MiB", "6", char_refs, 16 * 4, None),
     ("monitor-half-requests", "9", monitor_half_requests, 16, None),
 )

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import asyncio
+
 from monitor_helpers import HttpClient, get, run, serving
 
 from openair.monitor import HttpLimits, MonitorOptions
@@ -51,5 +53,28 @@ def test_one_peer_cannot_take_every_monitor_connection() -> None:
             assert (await half[1].response()).status == 200
             for client in half[1:]:
                 await client.close()
+
+    run(go)
+
+
+def test_a_request_trickling_in_is_cut_at_its_whole_deadline_not_per_gap() -> None:
+    """A byte every 50 ms never leaves a gap, yet the request must end 0.3 s after it began."""
+
+    async def go() -> None:
+        options = MonitorOptions(limits=HttpLimits(head_deadline_s=0.3, idle_s=30.0))
+        async with serving(monitor=options) as (server, _):
+            client = await HttpClient.open(server.port)
+            client.write(b"GET / HTTP/1.1\r\nHost: localhost\r\nX-Slow: ")
+
+            async def trickle() -> None:
+                for _ in range(200):  # 10 s of header if nobody stops it
+                    client.write(b"a")
+                    await asyncio.sleep(0.05)
+
+            dripping = asyncio.create_task(trickle())
+            reply = await client.response()
+            assert reply.status == 408
+            assert not dripping.done()  # cut while it was still arriving
+            dripping.cancel()
 
     run(go)

@@ -13,12 +13,15 @@ and not a library's choices (quote style, escapes, `<c></c>` against `<c/>`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from lxml import etree
 
 from openair.errors import OpenAIRError
+from openair.message import Message
 from openair.xmlsafe import parse_xml
 
-__all__ = ["canonical_xml_text", "text_content"]
+__all__ = ["canonical_xml_text", "content_glob", "text_content", "text_of"]
 
 _WS = " \t\n\r"  # the white space of XML 1.0 (OA-RET-17)
 _XML_NS = "http://www.w3.org/XML/1998/namespace"
@@ -136,3 +139,35 @@ def text_content(content: str) -> str:
     out: list[str] = []
     _text(wrapper, out)
     return "".join(out)
+
+
+def content_glob(pattern: str) -> Callable[[str], bool]:
+    """Return a matcher for a retrieve `content` glob (OA-RET-8).
+
+    `*` matches any run of characters; every other character, `?` included, is literal; the
+    whole text must match, case-sensitively.
+    """
+    parts = pattern.split("*")
+    if len(parts) == 1:
+        return pattern.__eq__
+    pre, post, middles = parts[0], parts[-1], parts[1:-1]
+
+    def match(text: str) -> bool:
+        end = len(text) - len(post)
+        if end < len(pre) or not text.startswith(pre) or not text.endswith(post):
+            return False
+        pos = len(pre)
+        # Leftmost placement of each middle part is optimal for `*`-only globs.
+        for middle in middles:
+            found = text.find(middle, pos, end)
+            if found < 0:
+                return False
+            pos = found + len(middle)
+        return True
+
+    return match
+
+
+def text_of(msg: Message) -> str:
+    """Return a message's text content (OA-RET-18): its text, or that of its XML content."""
+    return text_content(msg.content) if msg.content_is_xml else msg.content

@@ -1,9 +1,10 @@
 """The monitor attached to one server: its tap, its HTTP connections and listener, its timers.
 
-`Monitor.start()` installs the tap as the router's observer and as the dispatcher's delivery
-hook (post -> wakeup latency), starts a once-a-second sampler for rates, and opens the
-`--http-port` listener when asked. HTTP on the main port arrives through `adopt()` (the server
-hands over a connection whose first bytes are an HTTP request line, OA-EXT-3).
+`Monitor.start()` attaches the tap through the server's observer interface (`Server.observe`,
+openair.observing: stored posts, and acknowledged deliveries for post -> wakeup latency),
+starts a once-a-second sampler for rates, and opens the `--http-port` listener when asked.
+HTTP on the main port arrives through `adopt()` (the server hands over a connection whose
+first bytes are an HTTP request line, OA-EXT-3).
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -90,6 +91,7 @@ class Monitor:
         self._loop = asyncio.get_running_loop()
         self._sampler: asyncio.TimerHandle | None = None
         self._closed = False
+        self._detach: Callable[[], None] = lambda: None
 
     # -- life cycle -------------------------------------------------------------------------
 
@@ -103,8 +105,8 @@ class Monitor:
                 reuse_address=True,
             )
             self.http_port = int(self._listener.sockets[0].getsockname()[1])
-        self.server.router.observer = self.tap.observe
-        self.server.dispatcher.on_delivered = self.tap.delivered  # post -> wakeup latency
+        # Posts into the ring, acknowledged deliveries into the latency histograms.
+        self._detach = self.server.observe(self.tap)
         self.latency_hooked = True
         self._sample()
 
@@ -121,9 +123,7 @@ class Monitor:
         if self._closed:
             return
         self._closed = True
-        router = self.server.router
-        if router.observer == self.tap.observe:
-            router.observer = None
+        self._detach()
         if self._sampler is not None:
             self._sampler.cancel()
         self.broadcaster.close()

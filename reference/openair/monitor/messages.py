@@ -12,11 +12,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from openair.contentmatch import content_glob, text_of
 from openair.errors import OpenAIRError
 from openair.matching import matches
 from openair.message import Message, Reference
-from openair.server.router import Delivery
-from openair.server.whiteboard import content_glob, text_of
+from openair.observing import Delivered
 from openair.times import AirTime
 from openair.types import validate_pattern
 from openair.wakeup import parse_wakeup
@@ -111,7 +111,7 @@ def latency_ms(msg: Message) -> float | None:
 
 
 def summary(
-    msg: Message, deliveries: tuple[Delivery, ...] | None, seq: int | None
+    msg: Message, deliveries: tuple[Delivered, ...] | None, seq: int | None
 ) -> dict[str, object]:
     """Return the one-line form of a stored message (whiteboard lists, event streams)."""
     content = msg.content
@@ -180,7 +180,7 @@ def _slots(msg: Message) -> dict[str, object]:
     }
 
 
-def _wakeup(delivery: Delivery, stored: Message) -> dict[str, object]:
+def _wakeup(delivery: Delivered, stored: Message) -> dict[str, object]:
     """Describe one wakeup a post caused: module, delay, the trigger that fired or cc."""
     lasttrigger: str | None
     try:
@@ -199,7 +199,7 @@ def _wakeup(delivery: Delivery, stored: Message) -> dict[str, object]:
     }
 
 
-def detail(msg: Message, deliveries: tuple[Delivery, ...] | None) -> dict[str, object]:
+def detail(msg: Message, deliveries: tuple[Delivered, ...] | None) -> dict[str, object]:
     """Return a stored message with every slot, its latency, cc list and the wakeups it caused.
 
     `deliveries` is None when the post is older than the monitor's ring: its wakeups are then

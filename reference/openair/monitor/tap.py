@@ -1,9 +1,9 @@
 """The monitor's tap on the router: a ring of recent posts, and what is cheap to count on the way.
 
-`Tap.observe` is the router's observer (`Router.observer`): it runs inside the post path, so it
-does O(1) work and never raises: it appends (stored copy, deliveries) to a bounded ring, counts
-the post and remembers the type each sender posted last. Everything else (JSON, filters, rates,
-the graph) is computed later from the ring, and only when someone looks.
+`Tap` is the monitor's `ServerObserver` (openair.observing): `Tap.observe` runs inside the post
+path, so it does O(1) work and never raises: it appends (stored copy, deliveries) to a bounded
+ring, counts the post and remembers the type each sender posted last. Everything else (JSON,
+filters, rates, the graph) is computed later from the ring, and only when someone looks.
 
 Events are numbered from 0 in arrival order (`seq`); the ring keeps the newest `capacity`, and
 no more than `max_bytes` of messages and wakeup frames (issue #19: large posts must not make the
@@ -23,8 +23,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from openair.message import Message
-from openair.server.queues import QueueItem, item_bytes
-from openair.server.router import Delivery
+from openair.observing import Acknowledged, Delivered, message_bytes
 
 __all__ = ["LATENCY_BOUNDS_US", "Event", "Histogram", "RateMeter", "Tap"]
 
@@ -36,7 +35,7 @@ LATENCY_BOUNDS_US: tuple[int, ...] = (
 _MAX_SENDERS = 10_000  # distinct `from` names remembered before the table starts afresh
 _MAX_HISTOGRAMS = 10_000
 
-Event = tuple[Message, tuple[Delivery, ...]]
+Event = tuple[Message, tuple[Delivered, ...]]
 
 
 @dataclass(slots=True)
@@ -75,7 +74,7 @@ def _ms(us: int) -> str:
 
 
 class Tap:
-    """The router's observer and the dispatcher's delivery hook."""
+    """The monitor's observer of the server (`Server.observe`): posts, acknowledged deliveries."""
 
     def __init__(self, capacity: int = 512, max_bytes: int = 32 << 20) -> None:
         self.ring: deque[Event] = deque(maxlen=capacity)
@@ -87,12 +86,12 @@ class Tap:
         self.last_type: dict[str, str] = {}  # sender -> the type it posted last
         self.latency: dict[str, Histogram] = {}
 
-    def observe(self, whiteboard: str, stored: Message, deliveries: tuple[Delivery, ...]) -> None:
+    def observe(self, whiteboard: str, stored: Message, deliveries: tuple[Delivered, ...]) -> None:
         """Record one stored post (the router's observer: O(1), never raises)."""
         try:
-            size = item_bytes(stored, None)
+            size = message_bytes(stored, None)
             for delivery in deliveries:
-                size += item_bytes(delivery.message, delivery.wire)
+                size += message_bytes(delivery.message, delivery.wire)
             if len(self.ring) == self.ring.maxlen:
                 self.bytes -= self._sizes.popleft()  # the append below drops the oldest
             self.ring.append((stored, deliveries))
@@ -109,7 +108,7 @@ class Tap:
         except Exception:  # routing never waits on a monitor problem
             self.errors += 1
 
-    def delivered(self, module: str, item: QueueItem) -> None:
+    def delivered(self, module: str, item: Acknowledged) -> None:
         """Record the latency of a delivery acknowledged now (post, or trigger `after`, → ack)."""
         try:
             if not item.due_ns:

@@ -20,13 +20,15 @@ import logging
 import socket
 import ssl
 import time
-from collections.abc import Coroutine, Mapping
+from collections.abc import Callable, Coroutine, Mapping
 from dataclasses import dataclass, field, replace
+from importlib.metadata import entry_points
 from typing import Protocol
 
 import openair
 from openair.framing import FrameTag
 from openair.message import Message
+from openair.observing import ServerObserver
 from openair.server.auth import AuthGate
 from openair.server.budgets import Budget, quiet_accept_errors
 from openair.server.commands import declared_extensions
@@ -64,6 +66,20 @@ _BINDS = frozenset({"BIND", "BIND_NOLISTEN"})
 DEFAULT_PORT = 10000
 _WILDCARD_HOSTS = frozenset({"", "0.0.0.0", "::"})
 _STAGE_S = 2.0  # the longest one shutdown stage after the grace period may take
+
+
+#: The entry point group of the applications a server attaches when it starts (pyproject.toml:
+#: `monitor`, the web monitor). The server never imports them: they attach through `observe`.
+ATTACHMENTS = "openair.server.attachments"
+
+
+async def _attach(name: str, server: Server) -> MonitorHook | None:
+    """Start the installed application `name` on `server` (None when none is installed)."""
+    for entry in entry_points(group=ATTACHMENTS, name=name):
+        hook: MonitorHook = await entry.load()(server)
+        return hook
+    log.warning("event=attachment_missing name=%s group=%s", name, ATTACHMENTS)
+    return None
 
 
 class MonitorHook(Protocol):
@@ -215,6 +231,20 @@ class Server:
         )
         self._apply(outcome, conn.conn_id)
         return outcome
+
+    def observe(self, observer: ServerObserver) -> Callable[[], None]:
+        """Show every stored post and every acknowledged delivery to `observer` (one at a
+        time); return the function that detaches it (openair.observing)."""
+        self.router.observer = observer.observe
+        self.dispatcher.on_delivered = observer.delivered
+
+        def detach() -> None:
+            if self.router.observer == observer.observe:
+                self.router.observer = None
+            if self.dispatcher.on_delivered == observer.delivered:
+                self.dispatcher.on_delivered = None
+
+        return detach
 
     def inject(self, msg: Message, *, received_ns: int, conn_id: int = 0) -> Outcome:
         """Route a message that came from no connection (the monitor's post form) as a post.
@@ -424,9 +454,7 @@ class Server:
             self._ticker = asyncio.get_running_loop().call_later(_TICK_S, self._tick)
         self._sweep()
         if self.options.monitor and "monitor" in self.extensions:  # OA-AUTH-11
-            from openair.monitor import attach  # the monitor is optional: import it lazily
-
-            self.monitor = await attach(self)
+            self.monitor = await _attach("monitor", self)
         await self._listener.start_serving()
         log.info(
             "event=listening host=%s port=%d whiteboards=%s extensions=%s",

@@ -22,20 +22,10 @@ from dataclasses import dataclass, field
 
 from openair.message import Message
 
+# The size of a held message, shared with the server's observers (the monitor's ring).
+from openair.observing import message_bytes as item_bytes
+
 __all__ = ["DeliveryQueue", "QueueCounters", "QueueItem", "item_bytes"]
-
-#: What a delivery costs beyond its content and chunks: the envelope's slots and the frame header.
-_ENVELOPE_BYTES = 512
-
-
-def item_bytes(message: Message, wire: bytes | tuple[bytes, ...] | None) -> int:
-    """Return the bytes one queued delivery holds: its frame, or an estimate from its slots."""
-    if isinstance(wire, bytes):
-        return len(wire)
-    if wire is not None:
-        return sum(len(part) for part in wire)
-    size = _ENVELOPE_BYTES + len(message.content) + len(message.history) + len(message.comment)
-    return size + sum(len(chunk) for chunk in message.binary)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from openair.content import ContentMatch, RetrieveSpec
-from openair.contentmatch import canonical_xml_text, text_content
+from openair.contentmatch import canonical_xml_text, content_glob, text_of
 from openair.errors import StoreFailedError
 from openair.fastcodec import derived
 from openair.matching import matches
@@ -54,38 +54,6 @@ def derive(msg: Message, **changes: Any) -> Message:
 def text_bytes(msg: Message) -> int:
     """Return a lower bound of the XML bytes `msg` takes in a collection: its text slots."""
     return len(msg.content) + len(msg.history) + len(msg.comment)
-
-
-def content_glob(pattern: str) -> Callable[[str], bool]:
-    """Return a matcher for a retrieve `content` glob (OA-RET-8).
-
-    `*` matches any run of characters; every other character, `?` included, is literal; the
-    whole text must match, case-sensitively.
-    """
-    parts = pattern.split("*")
-    if len(parts) == 1:
-        return pattern.__eq__
-    pre, post, middles = parts[0], parts[-1], parts[1:-1]
-
-    def match(text: str) -> bool:
-        end = len(text) - len(post)
-        if end < len(pre) or not text.startswith(pre) or not text.endswith(post):
-            return False
-        pos = len(pre)
-        # Leftmost placement of each middle part is optimal for `*`-only globs.
-        for middle in middles:
-            found = text.find(middle, pos, end)
-            if found < 0:
-                return False
-            pos = found + len(middle)
-        return True
-
-    return match
-
-
-def text_of(msg: Message) -> str:
-    """Return a message's text content (OA-RET-18): its text, or that of its XML content."""
-    return text_content(msg.content) if msg.content_is_xml else msg.content
 
 
 def xml_text_of(msg: Message) -> str:

@@ -22,6 +22,7 @@ from openair.ontology.history import (
     History,
     HistoryConnectError,
     HistoryError,
+    history_of_recording,
     load_history,
     read_sqlite,
     read_xml,
@@ -246,9 +247,7 @@ def infer(
         raise _fail("give exactly one of --from, --from-store, --from-file and --from-recording")
     try:
         if recording:
-            from openair.recording import history_of  # lazily: only this source needs it
-
-            history = history_of(recording)
+            history = history_of_recording(recording)
             for note in history.notes:  # a recording cut short says so
                 click.echo(f"warning: {note}", err=True)
         else:

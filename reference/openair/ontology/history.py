@@ -34,6 +34,7 @@ __all__ = [
     "History",
     "HistoryConnectError",
     "HistoryError",
+    "history_of_recording",
     "load_history",
     "read_sqlite",
     "read_xml",
@@ -192,3 +193,19 @@ async def _whiteboard_names(module: Module) -> tuple[str, ...]:
         if key.startswith("whiteboards.") and key.endswith(".count"):
             names[key[len("whiteboards.") : -len(".count")]] = None
     return tuple(names)
+
+
+def history_of_recording(path: str) -> History:
+    """Return a recording's messages as an ontology history (oldest first); raise HistoryError."""
+    from openair.recording import messages_of  # lazily: only this source needs it
+
+    try:
+        records, reader = messages_of(path)
+    except OSError as exc:
+        raise HistoryError(f"recording {path}: cannot read: {exc.strerror}") from None
+    except OpenAIRError as exc:
+        raise HistoryError(f"recording {path}: not a readable recording: {exc}") from None
+    ordered = sorted(records, key=lambda r: r.time_us)  # stable: file order within a time
+    return History(
+        source=path, messages=tuple(r.message for r in ordered), notes=tuple(reader.warnings)
+    )

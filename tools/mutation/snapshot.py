@@ -8,6 +8,7 @@ covers what decides behaviour (the reference, the suite, the spec and the schema
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import shutil
@@ -42,7 +43,9 @@ def copy_tree(root: Path, dest: Path, files: Sequence[str]) -> None:
         if src.is_symlink():
             os.symlink(os.readlink(src), dst)
         else:
-            shutil.copy2(src, dst)
+            # Others edit the tree meanwhile: a file removed since it was listed is skipped.
+            with contextlib.suppress(FileNotFoundError):
+                shutil.copy2(src, dst)
 
 
 def tree_hash(root: Path, files: Sequence[str]) -> str:

@@ -167,7 +167,15 @@ class Cluster:
         """Start a killed node again: its nats-server (same store), then its server."""
         self.kill(node)
         self.start_nats(node)
-        self.start_server(node)
+        self.wait_jetstream()
+        for attempt in range(3):  # a restarted nats-server may still be catching up
+            try:
+                self.start_server(node)
+                return
+            except RuntimeError:
+                if attempt == 2:
+                    raise
+                time.sleep(2.0)
 
     # -- processes -----------------------------------------------------------------------------
 

@@ -8,6 +8,7 @@ Psyclone.Module.Lost to the shared AIRCentral) RB marks RA's objects stale (OA-W
 from __future__ import annotations
 
 import asyncio
+import contextlib
 
 import pytest
 from netcluster import Cluster, run_in
@@ -50,3 +51,36 @@ def test_system_facts_cross_nodes_and_a_lost_robot_goes_stale(cluster: Cluster) 
             await b.close()
 
     run_in(cluster.client_ns, asyncio.wait_for(body(), 60), timeout=90)
+
+
+@pytest.mark.timeout(240)
+def test_a_dead_nodes_robot_goes_stale_on_the_other_nodes(cluster: Cluster) -> None:
+    n1, n3 = cluster.nodes[0], cluster.nodes[2]
+
+    async def body() -> tuple[bool, bool]:
+        a = WorldModelNode(
+            "WmA3", robot="RA3", whiteboard="WB1", host=n3.address, port=10000, peers=["WB2"]
+        )
+        b = WorldModelNode(
+            "WmB3", robot="RB3", whiteboard="WB2", host=n1.address, port=10000, peers=["WB1"]
+        )
+        await a.start()
+        await b.start()
+        try:
+            a.create("RA3.Intent", context=Context.SYSTEM)
+            await a.write("RA3.Intent", "goal", "dock")
+            assert await b.wait_for(lambda: b.core.lookup("RA3.Intent", "goal") is not None, BOUND)
+            await asyncio.get_running_loop().run_in_executor(None, lambda: cluster.kill(n3))
+            # No node posts Lost for WmA3 but a survivor that stops hearing n3 (OA-CLU-7).
+            stale = await b.wait_for(lambda: b.core.blackboard.objects["RA3.Intent"].stale, BOUND)
+            return stale, b.core.lookup("RA3.Intent", "goal") is None
+        finally:
+            await b.close()
+            with contextlib.suppress(Exception):
+                await asyncio.wait_for(a.close(), 5)
+
+    try:
+        stale, unseen = run_in(cluster.client_ns, body(), timeout=120)
+    finally:
+        cluster.restart(n3)
+    assert stale and unseen

@@ -19,9 +19,11 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import json
 import logging
 import struct
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Coroutine
 from dataclasses import dataclass, field
@@ -43,6 +45,9 @@ log = logging.getLogger("openair.cluster")
 _T = TypeVar("_T")
 _LEN = struct.Struct(">I")
 _PREFIX = "openair.wb."
+_NODES = "openair.node."  # heartbeats: the node's name in hex, its bound modules as JSON
+_BEAT_S = 0.5
+_DEAD_S = 3.0  # a node not heard for this long is dead (OA-CLU-7)
 _WATCH_S = 1.0  # how often a node compares what it read with each stream's end
 
 
@@ -139,6 +144,10 @@ class ClusterStore:
         self._js: Any = None
         self._notify: Callable[[], None] | None = None
         self._scheduled = False
+        self._announced: tuple[str, ...] = ()
+        self._peers: dict[str, tuple[float, tuple[str, ...]]] = {}  # node -> (heard, modules)
+        self._lost: list[str] = []
+        self._retry: list[str] = []  # Lost notices that failed, taken again at the next beat
         self._outbox: deque[tuple[str, bytes, concurrent.futures.Future[int] | None]] = deque()
         self._inflight = 0  # publishes queued or sent, not settled yet
         self._flushing = False
@@ -190,6 +199,8 @@ class ClusterStore:
             board = self._boards[wb.name] = _Board(wb.name)
             await self._subscribe(board, 1)
         self._spawn(self._watch())
+        await self._nc.subscribe(_NODES + ">", cb=self._heard)
+        self._spawn(self._heartbeat())
 
     async def _subscribe(self, board: _Board, start: int) -> None:
         """Read the whiteboard's stream in order from sequence `start` (an ordered consumer)."""
@@ -234,6 +245,70 @@ class ClusterStore:
                     with contextlib.suppress(Exception):
                         await self._subscribe(board, through + 1)
                 board.stalled_at = through if behind else -1
+
+    # -- liveness (OA-CLU-7) -------------------------------------------------------------------
+
+    def announce(self, modules: tuple[str, ...]) -> None:
+        """Say which modules are bound to this node (called by the server, any thread).
+
+        A change is published at once, not only with the next heartbeat.
+        """
+        if modules == self._announced:
+            return
+        self._announced = modules
+        loop = self._loop
+        if loop is not None and self._nc is not None:
+            payload = json.dumps(list(modules)).encode()
+            loop.call_soon_threadsafe(self._spawn, self._publish_beat(payload))
+
+    async def _publish_beat(self, payload: bytes) -> None:
+        with contextlib.suppress(Exception):
+            await self._nc.publish(_NODES + self.spec.node.encode().hex(), payload)
+
+    def take_lost(self) -> list[str]:
+        """The modules of nodes found dead since the last call, for this node to post Lost."""
+        with self._cond:
+            lost, self._lost = self._lost, []
+        return lost
+
+    def lost_again(self, modules: list[str]) -> None:
+        if modules:
+            with self._cond:
+                self._retry.extend(modules)
+
+    async def _heartbeat(self) -> None:
+        """Every `_BEAT_S`, tell the other nodes this one lives and which modules it holds;
+        declare dead a node not heard for `_DEAD_S` (its modules' Lost is posted once, by the
+        live node whose name sorts first)."""
+        while True:
+            await self._publish_beat(json.dumps(list(self._announced)).encode())
+            with self._cond:
+                retry, self._retry = self._retry, []
+                self._lost.extend(retry)
+            if retry and self._notify is not None:
+                self._notify()
+            now = time.monotonic()
+            dead = [n for n, (seen, _) in self._peers.items() if now - seen > _DEAD_S]
+            alive = sorted([self.spec.node, *(n for n in self._peers if n not in dead)])
+            for node in dead:
+                _, modules = self._peers.pop(node)
+                log.warning("event=cluster_node_dead node=%s modules=%d", node, len(modules))
+                if alive[0] == self.spec.node and modules:
+                    with self._cond:
+                        self._lost.extend(modules)
+                    if self._notify is not None:
+                        self._notify()
+            await asyncio.sleep(_BEAT_S)
+
+    async def _heard(self, msg: Any) -> None:
+        node = bytes.fromhex(msg.subject[len(_NODES) :]).decode(errors="replace")
+        if node == self.spec.node:
+            return
+        try:
+            modules = tuple(str(m) for m in json.loads(msg.data))
+        except ValueError:
+            return
+        self._peers[node] = (time.monotonic(), modules)
 
     def _spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.get_running_loop().create_task(coro)

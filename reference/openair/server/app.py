@@ -309,6 +309,8 @@ class Server:
             ",".join(sorted(info.extensions)) or "-",
         )
         self.dispatcher.poke(msg.sender)
+        if isinstance(self.store, SequencedStore):
+            self.store.announce(self.router.bound_names())  # OA-CLU-7
 
     def _apply(self, outcome: Outcome, this: int) -> None:
         """Queue the outcome's deliveries and close the connections it names (not `this`)."""
@@ -371,6 +373,8 @@ class Server:
     def _sweep(self) -> None:
         """Forget modules gone longer than module-retention-ms (OA-LIM-15); look again later."""
         retention_ms = self.limits.module_retention_ms
+        if isinstance(self.store, SequencedStore):
+            self.store.announce(self.router.bound_names())  # OA-CLU-7: heartbeats carry them
         forgotten = self.router.forget_gone(time.time_ns(), retention_ms * 1_000_000)
         if forgotten:
             log.info("event=forgotten modules=%d", forgotten)
@@ -485,6 +489,13 @@ class Server:
             store.notified()
         if not self._final and hasattr(self, "router"):
             self._apply(self.router.adopt_stored(time.time_ns()), 0)
+            if isinstance(store, SequencedStore):
+                store.announce(self.router.bound_names())
+                lost = store.take_lost()  # OA-CLU-7: a dead node's modules
+                if lost:
+                    outcome, failed = self.router.others_lost(lost, time.time_ns())
+                    self._apply(outcome, 0)
+                    store.lost_again(failed)  # the store was electing leaders: next beat
 
     @property
     def whiteboards(self) -> tuple[str, ...]:

@@ -13,7 +13,7 @@ woken module (OA-WAKE-5).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 from openair.auth import AUTH_ACCEPT, AUTH_NONCE
@@ -517,6 +517,26 @@ class Router:
         for board in self._whiteboards.values():
             deliveries += self._adopted(board, board.adopt(), now_ns)
         return Outcome(deliveries=deliveries) if deliveries else Outcome()
+
+    def bound_names(self) -> tuple[str, ...]:
+        """The names of the modules bound to this server now (a cluster node announces them)."""
+        return tuple(self._modules)
+
+    def others_lost(self, names: Iterable[str], now_ns: int) -> tuple[Outcome, list[str]]:
+        """Post `Psyclone.Module.Lost.<name>` for modules of a dead cluster node (OA-CLU-7).
+
+        Returns the outcome and the names whose notice could not be stored (to try again).
+        """
+        deliveries: list[Delivery] = []
+        failed: list[str] = []
+        for name in names:
+            if name in self._modules:
+                continue  # bound here again: not lost
+            before = self._lost_notices
+            deliveries.extend(self._notice(f"Psyclone.Module.Lost.{name}", now_ns))
+            if self._lost_notices != before:
+                failed.append(name)
+        return (Outcome(deliveries=tuple(deliveries)) if deliveries else Outcome()), failed
 
     def _over_budget(self, board: Whiteboard, msg: Message) -> LimitExceededError | None:
         """Refuse a post that would take the bytes held past `max-held-bytes` (OA-LIM-14).

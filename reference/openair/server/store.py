@@ -92,6 +92,18 @@ class SequencedStore(HistoryStore, Protocol):
         """The server took the notice: the next copies that arrive notify again."""
         ...
 
+    def announce(self, modules: tuple[str, ...]) -> None:
+        """Tell the other servers which modules are bound to this one."""
+        ...
+
+    def take_lost(self) -> list[str]:
+        """Modules of servers found dead, whose Lost notices this server posts (OA-CLU-7)."""
+        ...
+
+    def lost_again(self, modules: list[str]) -> None:
+        """Hand back modules whose Lost notice could not be stored, to be taken again later."""
+        ...
+
 
 class StoreSpecError(ValueError):
     """A store specification that `open_store` does not understand, or a store it cannot open."""

@@ -125,6 +125,7 @@ class _Board:
     through: int = 0  # the highest stream sequence received
     stalled_at: int = -1  # `through` when the stream was last seen ahead of it
     sub: Any = None  # the consumer's subscription
+    generation: int = 0  # of the subscription: copies from an older one are ignored
     skipped: int = 0  # payloads that did not decode
 
 
@@ -206,6 +207,7 @@ class ClusterStore:
         """Read the whiteboard's stream in order from sequence `start` (an ordered consumer)."""
         from nats.js.api import ConsumerConfig, DeliverPolicy
 
+        board.generation += 1  # from now on only the new subscription's copies count
         if board.sub is not None:
             with contextlib.suppress(Exception):
                 await board.sub.unsubscribe()
@@ -216,7 +218,7 @@ class ClusterStore:
             config=ConsumerConfig(
                 deliver_policy=DeliverPolicy.BY_START_SEQUENCE, opt_start_seq=start
             ),
-            cb=self._receiver(board),
+            cb=self._receiver(board, board.generation),
             pending_msgs_limit=-1,
             pending_bytes_limit=-1,
         )
@@ -339,8 +341,12 @@ class ClusterStore:
             return
         await self._js.update_stream(wanted)
 
-    def _receiver(self, board: _Board) -> Callable[[Any], Coroutine[Any, Any, None]]:
+    def _receiver(
+        self, board: _Board, generation: int
+    ) -> Callable[[Any], Coroutine[Any, Any, None]]:
         async def received(msg: Any) -> None:
+            if generation != board.generation:
+                return  # a replaced subscription: its copies interleave with the new one's
             seq = int(msg.metadata.sequence.stream)
             if seq <= board.through:
                 return  # a consumer read again from an earlier point: held already

@@ -11,6 +11,7 @@ from __future__ import annotations
 from bench import bench_streams
 from bench.peers.brokers import Broker, memory_kib, reset_peak
 from bench.peers.workloads import Flow, load_average
+from bench.streamload import Workload
 
 FRAME_BYTES = 640 * 480 * 3
 
@@ -18,7 +19,7 @@ FRAME_BYTES = 640 * 480 * 3
 def openair_video(broker: Broker, seconds: float, case: str) -> Flow:
     """Push 921 600-byte samples at 30 Hz to 3 stream subscribers; failures set `error`."""
     load = load_average()
-    spec = bench_streams.Workload(
+    spec = Workload(
         case="video", stream="Video", size=FRAME_BYTES, rate=30, seconds=seconds, subscribers=3
     )
     try:

@@ -17,6 +17,7 @@ from openair.codec import to_frame
 from openair.framing import encode_frame
 from openair.message import Message
 from openair.objects import encode_message_collection, parse_message_collection
+from openair.server import commands as commands_module
 from openair.server import retrieve as retrieve_module
 from openair.server.retrieve import PreparedRetrieve, answer_retrieve, prepare_retrieve
 from openair.server.store import MemoryStore
@@ -111,6 +112,42 @@ def test_other_clients_are_served_while_a_large_retrieve_reply_is_written(
         )
         assert second is not None and second.type == "PING_SUCCESS"  # OA-SESS-2
         for raw in (poster, reader, other):
+            await raw.close()
+        await server.stop()
+
+    run(body)
+    assert len(threads) == 1 and threads[0] != threading.current_thread().name
+
+
+def test_a_status_of_many_names_is_written_off_the_loop(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Item 7: a STATUS naming hundreds of modules does not stop the other clients."""
+    released = threading.Event()
+    threads: list[str] = []
+    original = commands_module.status_reply
+
+    def held(*args: Any, **kwargs: Any) -> Message:
+        threads.append(threading.current_thread().name)
+        released.wait(BOUND)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(commands_module, "status_reply", held)
+
+    async def body() -> None:
+        server = await serving()
+        names = [await Raw.open(server.port) for _ in range(100)]
+        for i in range(300):  # 300 names with counters (a request each), 3 per connection
+            names[i % 100].send(Message(type="BIND_NOLISTEN", to="CNS", sender=f"Name{i}"))
+            names[i % 100].send(Message(type="PING", to="CNS", sender=f"Name{i}"))
+        for i in range(300):
+            bound, ping = await names[i % 100].recv(), await names[i % 100].recv()
+            assert bound is not None and ping is not None and ping.type == "PING_SUCCESS"
+        asker, other = await Raw.open(server.port), await Raw.open(server.port)
+        asker.send(Message(type="STATUS", to="CNS", sender="Asker"))
+        await other.ping()  # served while the STATUS is being written
+        released.set()
+        reply = await asker.recv()
+        assert reply is not None and "modules.Name299.requests" in reply.content
+        for raw in [*names, asker, other]:
             await raw.close()
         await server.stop()
 

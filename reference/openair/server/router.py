@@ -129,6 +129,10 @@ class Outcome:
     later: Callable[[], tuple[Message, bytes | None]] | None = None
 
 
+#: STATUS with counters of at least this many module names is written off the loop (issue #19).
+_LARGE_STATUS = 256
+
+
 @dataclass(slots=True)
 class _Triggers:
     """The indexed triggers of one module's registration in force."""
@@ -981,6 +985,16 @@ class Router:
             dropped = counters.get("dropped")
             expired = dropped.get("EXPIRED", 0) if isinstance(dropped, Mapping) else 0
             counters["Deliveries"] = {"Expired": expired}
+        if self.defer_large_replies and len(self._counters) >= _LARGE_STATUS:
+            # Thousands of names take a second to write: on a worker (issue #19, item 7). The
+            # counters are a copy taken now, so the reply is still of this moment.
+            def later() -> tuple[Message, bytes | None]:
+                reply = cmd.status_reply(
+                    msg, started_ns=started, now_ns=now_ns, modules=modules, counters=counters
+                )
+                return reply, None
+
+            return Outcome(later=later)
         answer = cmd.status_reply(
             msg, started_ns=started, now_ns=now_ns, modules=modules, counters=counters
         )

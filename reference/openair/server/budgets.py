@@ -13,12 +13,9 @@ Sans-I/O apart from the log: time comes in as seconds from the caller's clock.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import errno
 import logging
-import os
 import sys
-import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -175,7 +172,6 @@ def return_large_buffers() -> bool:
 
 _OFF_LOOP: list[ThreadPoolExecutor] = []
 _SWITCH_S = 0.0005
-_WORKER_NICE = 10
 
 
 def off_loop_executor() -> ThreadPoolExecutor:
@@ -190,18 +186,7 @@ def off_loop_executor() -> ThreadPoolExecutor:
         # The loop waits for the lock at most this long after asking (5 ms by default): the
         # worker's share of a second barely changes, every other client's wait falls.
         sys.setswitchinterval(_SWITCH_S)
-        worker = ThreadPoolExecutor(
-            max_workers=1, thread_name_prefix="openair-large", initializer=_yield_to_the_loop
-        )
-        _OFF_LOOP.append(worker)
+        # Not at a lower scheduling priority: a worker preempted while it holds the lock would
+        # keep the loop waiting for as long as the system leaves it off the processor.
+        _OFF_LOOP.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="openair-large"))
     return _OFF_LOOP[0]
-
-
-def _yield_to_the_loop() -> None:
-    """Lower the worker thread's scheduling priority (Linux: per thread) below the loop's.
-
-    On a busy machine the loop thread then gets the processor first when both can run; the
-    worker still runs whenever the loop waits. Where the system refuses, nothing changes.
-    """
-    with contextlib.suppress(OSError, AttributeError):
-        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), _WORKER_NICE)

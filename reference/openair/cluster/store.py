@@ -48,7 +48,8 @@ _PREFIX = "openair.wb."
 _NODES = "openair.node."  # heartbeats: the node's name in hex, its bound modules as JSON
 _BEAT_S = 0.5
 _DEAD_S = 3.0  # a node not heard for this long is dead (OA-CLU-7)
-_WATCH_S = 1.0  # how often a node compares what it read with each stream's end
+_WATCH_S = 0.5  # how often a node compares what it read with each stream's end
+_HEARTBEAT_S = 1.0  # the ordered consumers' idle heartbeat
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,6 +102,11 @@ def decode_copy(payload: bytes, wbid: int) -> Message | None:
         return derived(decode_message(xml, tuple(chunks)), wbid=wbid)
     except Exception:  # a payload another program published on our subject: skip it
         return None
+
+
+async def _quietly(coro: Coroutine[Any, Any, Any]) -> None:
+    with contextlib.suppress(Exception):
+        await coro
 
 
 async def _cancel_all() -> None:
@@ -186,13 +192,16 @@ class ClusterStore:
     async def _connect(self, config: ServerConfig) -> None:
         import nats
 
-        self._nc = await nats.connect(
-            servers=list(self.spec.urls),
-            name=f"openair-{self.spec.node}",
-            connect_timeout=self.timeout_s,
-            max_reconnect_attempts=-1,
-            reconnect_time_wait=0.25,
-            allow_reconnect=True,
+        self._nc = await asyncio.wait_for(  # the first connection: none of the servers answers
+            nats.connect(
+                servers=list(self.spec.urls),
+                name=f"openair-{self.spec.node}",
+                connect_timeout=self.timeout_s,
+                max_reconnect_attempts=-1,
+                reconnect_time_wait=0.25,
+                allow_reconnect=True,
+            ),
+            self.timeout_s,
         )
         self._js = self._nc.jetstream(timeout=self.timeout_s)
         for wb in config.whiteboards:
@@ -208,9 +217,8 @@ class ClusterStore:
         from nats.js.api import ConsumerConfig, DeliverPolicy
 
         board.generation += 1  # from now on only the new subscription's copies count
-        if board.sub is not None:
-            with contextlib.suppress(Exception):
-                await board.sub.unsubscribe()
+        if board.sub is not None:  # in the background: its server may be the one that died
+            self._spawn(_quietly(board.sub.unsubscribe()))
         board.sub = await self._js.subscribe(
             subject(board.name),
             stream=stream_name(board.name),
@@ -219,6 +227,7 @@ class ClusterStore:
                 deliver_policy=DeliverPolicy.BY_START_SEQUENCE, opt_start_seq=start
             ),
             cb=self._receiver(board, board.generation),
+            idle_heartbeat=_HEARTBEAT_S,  # a lost consumer is noticed (and recreated) soon
             pending_msgs_limit=-1,
             pending_bytes_limit=-1,
         )

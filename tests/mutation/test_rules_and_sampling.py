@@ -184,3 +184,30 @@ def test_explanations_by_mutant_line_or_function() -> None:
     other = dataclasses.replace(base, function="C.h", line_key="m.py:def")
     text = render([base, other], {"m.py:def:C.g": "equivalent: f", "m.py:def:Gone": "x"})
     assert "- `m.py:def:Gone`" in text and "- `m.py:def:C.g`" not in text  # stale listed
+
+
+MARKED = """\
+def g(a, *, b=64 * 1024):
+    return a
+
+
+def h(
+    a,
+    *,
+    b=2,
+):
+    return a
+"""
+
+
+def test_the_keyword_only_marker_turned_into_a_slash_needs_the_judge() -> None:
+    def at(line: int, col: int) -> tuple[str, str] | None:
+        hit = classify(MARKED, (line, col), (line, col + 1))
+        return None if hit is None else (hit.when, hit.reason.split(":")[0])
+
+    row = MARKED.splitlines()[0]
+    assert at(1, row.index("*")) == (IF_SURVIVES, "equivalent")  # the marker of g
+    assert at(1, row.index("* 1024")) is None  # a multiplication in a default value
+    assert at(7, 4) == (IF_SURVIVES, "equivalent")  # the marker of h, on its own line
+    namespace: dict[str, object] = {}
+    exec(compile(MARKED.replace("*,", "/,"), "m", "exec"), namespace)  # it does compile

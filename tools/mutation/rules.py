@@ -14,8 +14,10 @@ The rules (each checked in tests/mutation/test_mutation_driver.py):
 - `@dataclass(slots=...)`, `kw_only=True -> False` when the field order still allows
   positional fields, `__all__`, docstrings: PRE_JUDGE.
 - `@dataclass(frozen=...)`, `@dataclass(repr=...)`, `field(repr=...)`, the arguments of a
-  logging call: IF_SURVIVES (a frozen class made mutable loses its hash, a log argument may
-  raise; a survivor showed neither on the cases that ran it).
+  logging call, the keyword-only marker `*` of a parameter list turned into `/`: IF_SURVIVES
+  (a frozen class made mutable loses its hash, a log argument may raise, a caller may name a
+  parameter that became positional-only; a survivor showed none of that on the cases that
+  ran it).
 """
 
 from __future__ import annotations
@@ -48,6 +50,11 @@ _FROZEN = (
 _REPR = "unobservable over TCP: a dataclass repr only reaches log lines, never the wire"
 _ALL = "equivalent: __all__ only changes `from module import *`, which nothing in the tree uses"
 _DOC = "equivalent: a docstring is never read at run time"
+_POSITIONAL = (
+    "equivalent: `/` for the keyword-only `*` makes the parameters before it positional-only "
+    "and those after it accept positions too; the cases that ran the callers passed, so none "
+    "names an earlier parameter"
+)
 _LOG = (
     "unobservable over TCP: the expression only feeds a log line; the cases that ran it "
     "passed, so it did not raise"
@@ -171,6 +178,24 @@ def _parse(source: str) -> ast.Module:
     return ast.parse(source)
 
 
+def _marker_hits(tree: ast.Module, source: str, start: Pos, end: Pos) -> Iterator[RuleHit]:
+    """The keyword-only marker `*` of a parameter list (a mutation there turns it into `/`)."""
+    line = source.splitlines()[start[0] - 1] if 0 < start[0] <= source.count("\n") + 1 else ""
+    before, after = line[: start[1]].rstrip(), line[start[1] + 1 :].lstrip()
+    bare = (before == "" or before.endswith(("(", ","))) and (after == "" or after[0] in ",)")
+    if line[start[1] : start[1] + 1] != "*" or not bare:
+        return  # a multiplication in a default value, or `*args`/`**kwargs`
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            args = node.args
+            if not args.kwonlyargs or args.vararg is not None:
+                continue
+            header_end = node.body[0].lineno if node.body else node.lineno
+            if node.lineno <= start[0] < header_end and _inside(node, start, end):
+                yield RuleHit(when=IF_SURVIVES, reason=_POSITIONAL)
+                return
+
+
 def classify(source: str, start: Pos, end: Pos) -> RuleHit | None:
     """Return the rule that explains a mutation of `source` between `start` and `end`
     ((line, column), cosmic-ray's positions in the original source), or None."""
@@ -178,6 +203,8 @@ def classify(source: str, start: Pos, end: Pos) -> RuleHit | None:
     for hits in (_dataclass_hits, _field_repr_hits, _other_hits):
         for hit in hits(tree, start, end):
             return hit
+    for hit in _marker_hits(tree, source, start, end):
+        return hit
     return None
 
 

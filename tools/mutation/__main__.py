@@ -41,6 +41,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--report", type=Path, default=ROOT / "test-artifacts" / "mutation.md")
     p.add_argument("--explanations", type=Path, default=EXPLANATIONS)
     p.add_argument("--report-only", action="store_true", help="run nothing, write the report")
+    p.add_argument(
+        "--rejudge",
+        action="append",
+        default=[],
+        metavar="KEY",
+        help="judge this mutant again (repeatable; after a case was added for it)",
+    )
     p.add_argument("--note", action="append", default=[], help="a line for the report's header")
     p.add_argument(
         "--rejudge-survivors",
@@ -74,6 +81,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.rejudge_survivors:
             reopened = sum(campaign.reopen_survivors(m) for m in modules)
             print(f"{reopened} surviving mutants to judge again", flush=True)
+        if args.rejudge:
+            reopened = sum(campaign.reopen_keys(m, set(args.rejudge)) for m in modules)
+            print(f"{reopened} of {len(args.rejudge)} named mutants to judge again", flush=True)
         campaign.prepare()
         jobs = campaign.pending()
         print(f"{len(jobs)} mutants to judge with {args.workers} worker(s)", flush=True)

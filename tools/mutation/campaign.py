@@ -234,6 +234,17 @@ class Campaign:
             con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in survived])
         return len(survived)
 
+    def reopen_keys(self, module: str, wanted: set[str]) -> int:
+        """Drop the results of the module's mutants whose stable keys are in `wanted` (a case
+        was added for them), so that this run judges them again; return how many."""
+        session = self.session_path(module)
+        if not session.exists():
+            return 0
+        ids = [job for job, key in self.keys(module).items() if key in wanted]
+        with contextlib.closing(sqlite3.connect(session)) as con, con:
+            con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in ids])
+        return len(ids)
+
     def keys(self, module: str) -> dict[str, str]:
         """Return job id -> stable mutant key for every mutant of the module's session."""
         with use_db(str(self.init_session(module)), WorkDB.Mode.open) as db:

@@ -74,6 +74,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         timeout_scale=args.timeout_scale,
         sample=args.sample,
         seed=args.seed,
+        explained=frozenset(explanations),
     )
     campaign = Campaign(settings)
     started = time.monotonic()

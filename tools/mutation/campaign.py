@@ -80,6 +80,9 @@ class Settings:
     #: Judge at most this many mutants of each module, chosen by `seed` (None: all of them).
     sample: int | None = None
     seed: str = "0"
+    #: Explanation keys (equivalent.toml): mutants they would explain are judged last, so
+    #: that a campaign stopped part-way has spent its time on the others. Never skipped.
+    explained: frozenset[str] = frozenset()
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -295,7 +298,15 @@ class Campaign:
                 chosen = {i.job_id for i in items[: self.s.sample]}
                 pending = [i for i in pending if i.job_id in chosen]
             jobs += [Job(session=session, item=i, key=keys[i.job_id]) for i in pending]
-        jobs.sort(key=lambda j: _sample_order(j.key, self.s.seed))
+        source = {m: self.source(m) for m in self.s.modules}
+
+        def explained(job: Job) -> bool:
+            module, line = job.key.split(":", 1)[0], job.item.mutations[0].start_pos[0]
+            function = enclosing_function(source[module], line)
+            wanted = (job.key, ":".join(job.key.split(":")[:2]), f"{module}:def:{function}")
+            return any(k in self.s.explained for k in wanted)
+
+        jobs.sort(key=lambda j: (explained(j), _sample_order(j.key, self.s.seed)))
         return jobs if self.s.max_mutants is None else jobs[: self.s.max_mutants]
 
     def execute(self, jobs: Sequence[Job]) -> None:

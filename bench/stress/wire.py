@@ -103,7 +103,8 @@ class Canary:
 
     def before(self, began: float, ended: float) -> list[float]:
         """Return the round trips (ms) of the PINGs sent and answered from `began` to `ended`."""
-        return [ms for at, ms in list(self.samples) if at >= began and at + ms / 1000 < ended]
+        kept = [ms for at, ms in list(self.samples) if at >= began and at + ms / 1000 < ended]
+        return self._with_omitted(kept)
 
     def during(self, began: float, ended: float) -> list[float]:
         """Return the round trips (ms) of the PINGs in flight at any time from `began` to `ended`.
@@ -111,7 +112,25 @@ class Canary:
         A PING sent before `began` that the attack held up counts, and so does one sent before
         `ended` and answered after it: `settle` waits for those answers first.
         """
-        return [ms for at, ms in list(self.samples) if at < ended and at + ms / 1000 >= began]
+        kept = [ms for at, ms in list(self.samples) if at < ended and at + ms / 1000 >= began]
+        return self._with_omitted(kept)
+
+    def _with_omitted(self, round_trips: list[float]) -> list[float]:
+        """Add the PINGs a stall kept the canary from sending (coordinated omission).
+
+        The canary waits for each answer before it sends the next PING, so a 2 s stall yields
+        one sample, not the hundred a client sending every `period_s` would have seen delayed:
+        a few long stalls in a long attack would vanish below the 99th percentile. For a round
+        trip of r ms, the PINGs due every period during it count as r - p, r - 2p, ... ms.
+        """
+        period = self.period_s * 1000
+        out: list[float] = []
+        for ms in round_trips:
+            out.append(ms)
+            while ms > 2 * period:
+                ms -= period
+                out.append(ms)
+        return out
 
     def settle(self, ended: float, limit_s: float = 60.0) -> None:
         """Wait until a PING sent after `ended` was answered (at most `limit_s`)."""

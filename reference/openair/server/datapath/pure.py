@@ -79,6 +79,8 @@ class PurePath:
 
     def __init__(self) -> None:
         self.split = split_plain
+        self.requests = 0  # requests it routed
+        self.acks = 0  # acknowledgements it paired
 
     def feed(self, conn: ServerConnection, data: bytes, received_ns: int) -> bytes:
         buf = take_buffered(conn, data) if conn._reader.buffered else data
@@ -103,6 +105,7 @@ class PurePath:
                 break  # the reference decoder decides (and reports any error, OA-ERR-2)
             pos = end
             conn.frames_in += 1
+            self.requests += 1
             conn._route(MESSAGE_FRAME, msg, received_ns)
             if conn._closing or conn.waiting is not None or conn.role is not Role.RESPONDER:
                 break  # the reference path stops here too (OA-FRAME-9, OA-STREAM-7)
@@ -119,6 +122,7 @@ class PurePath:
                 break
             pos = end
             conn.frames_in += 1
+            self.acks += 1
             conn._resolve(ACK, None)
             if conn._closing:
                 break

@@ -168,12 +168,17 @@ class Cluster:
         self.kill(node)
         self.start_nats(node)
         self.wait_jetstream()
-        for attempt in range(3):  # a restarted nats-server may still be catching up
+        self.start_server_retrying(node)
+
+    def start_server_retrying(self, node: Node, attempts: int = 3) -> None:
+        """Start a node's server; again when it could not join (JetStream still forming or
+        catching up: the node exits 2, as a supervisor would see it)."""
+        for attempt in range(attempts):
             try:
                 self.start_server(node)
                 return
             except RuntimeError:
-                if attempt == 2:
+                if attempt == attempts - 1:
                     raise
                 time.sleep(2.0)
 
@@ -261,7 +266,7 @@ class Cluster:
             self.start_nats(node)
         self.wait_jetstream()
         for node in self.nodes:
-            self.start_server(node)
+            self.start_server_retrying(node)
 
     def wait_jetstream(self, timeout: float = 30.0) -> None:
         """Wait until each nats-server answers on its client port (the meta leader follows)."""

@@ -63,8 +63,16 @@ deps-browser:
 deps-cluster:
 	@command -v nats-server >/dev/null || { $(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y nats-server; }
 
-test-python: $(STAMP) deps-browser deps-cluster
+test-python: $(STAMP) deps-browser deps-cluster datapath-native
 	OPENAIR_REQUIRE_BINDINGS=1 OPENAIR_REQUIRE_BROWSER=1 OPENAIR_REQUIRE_CLUSTER=1 $(VENV)/bin/pytest -m "not fuzz" $(PYTEST_ARGS)
+
+## Build the server data path's C extension in place (issue #20): the editable venv imports it
+## from the tree. Without a compiler the pure-Python data path is used (and tested) instead.
+datapath-native: $(STAMP)
+	@cc -O2 -shared -fPIC -I"$$($(PY) -c 'import sysconfig; print(sysconfig.get_paths()["include"])')" \
+		reference/openair/server/datapath/_native.c \
+		-o reference/openair/server/datapath/_native$$($(PY) -c 'import sysconfig; print(sysconfig.get_config_var("EXT_SUFFIX"))') \
+		|| echo "datapath-native: no compiler; the pure-Python data path only"
 
 ## Install what is needed and pass every test.
 test: check-generated lint typecheck test-cpp test-java test-python

@@ -19,7 +19,7 @@ import asyncio
 import contextlib
 import json
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Coroutine, Iterator, Sequence
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -62,11 +62,19 @@ def _serving(limits: Limits) -> Iterator[tuple[str, int]]:
     options = app.ServerOptions(
         host="127.0.0.1", port=0, limits=config.ServerLimits(**dict(limits)), grace_s=0.2
     )
-    thread = ServerThread(lambda: app.start_server(options))
+    thread = ServerThread(lambda: _reference_path(app.start_server(options)))
     try:
         yield ("127.0.0.1", thread.port)
     finally:
         thread.stop()
+
+
+async def _reference_path(starting: Coroutine[Any, Any, Any]) -> Any:
+    """The mutants change the reference code: serve without a data path in front (issue #20),
+    which would take the frames before the mutated reader and decoder see them."""
+    server = await starting
+    server.datapath = None
+    return server
 
 
 def _run_cases(limits: Limits, cases: Sequence[RegisteredCase]) -> dict[str, CaseResult]:

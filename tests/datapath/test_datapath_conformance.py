@@ -1,0 +1,64 @@
+"""The whole conformance suite against the server on the Python and the native data path (#20).
+
+The reference path runs the suite in tests/conformance/test_suite_reference.py; here the same
+suite runs once per data path, the server in a background thread as there. A case that is not
+applicable must say why (as there); every other case must pass.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+from datapath_harness import datapaths
+from server_thread import ServerThread
+
+from openair.server.app import Server, ServerOptions, start_server
+from openair.server.datapath import DataPath
+from openair_conformance.engine import RunOptions, run
+from openair_conformance.model import Verdict
+from openair_conformance.registry import all_cases
+
+_PATHS = {name: path for name, path in datapaths().items() if path is not None}
+
+
+@contextlib.contextmanager
+def _serving(path: DataPath) -> Iterator[tuple[str, int]]:
+    async def factory() -> Server:
+        server = await start_server(ServerOptions(host="127.0.0.1", port=0))
+        server.datapath = path  # type: ignore[attr-defined]  # before any connection is accepted
+        return server
+
+    thread = ServerThread(factory)
+    try:
+        yield ("127.0.0.1", thread.port)
+    finally:
+        thread.stop()
+
+
+@pytest.mark.parametrize("name", sorted(_PATHS))
+def test_every_case_passes_on_the_data_path(name: str) -> None:
+    with _serving(_PATHS[name]) as target:
+        summary = asyncio.run(run(RunOptions(target=target, jobs=4)))
+    assert summary.total == len(all_cases())
+    bad = [
+        f"{r.info.id} {r.verdict.value}: {r.message}"
+        for r in summary.results
+        if r.verdict is not Verdict.PASS
+        and not (r.verdict is Verdict.NOT_APPLICABLE and r.message.strip())
+    ]
+    assert not bad, "\n".join(bad)
+    assert sum(r.verdict is Verdict.PASS for r in summary.results) > len(all_cases()) // 2
+
+
+def test_native_is_built_where_a_compiler_is() -> None:
+    """`make venv` builds the extension; the selector picks it when nothing is forced."""
+    from openair.server.datapath import select
+
+    chosen: Any = select({})
+    if "native" not in _PATHS:
+        pytest.skip("the native extension is not built in this environment")
+    assert chosen.name == "native"

@@ -207,6 +207,7 @@ def test_a_stalled_node_does_not_stop_the_others_and_catches_up(cluster: Cluster
                     for i, p in enumerate(posters):  # each within the client's 10 s timeout
                         await p.post("WB2", f"{tag}.P", f"{i}-{n}")
                         done += 1
+                await asyncio.sleep(2.0)  # stalled well past the others' posts
             finally:
                 await _in_thread(lambda: cluster.resume(slow))
             woken = []

@@ -43,7 +43,7 @@ RETRIEVES = "AIR.Retrieves"
 # The envelope around the collection in a reply: type, ids, names and times; generous.
 _ENVELOPE_ALLOWANCE = 1024
 # Retrieves that scan at least this many stored copies are chosen and written on a worker.
-_LARGE_SCAN = 512
+_LARGE_SCAN = 2048
 
 
 def parse_request(msg: Message) -> tuple[RetrieveSpec, ...]:

@@ -130,7 +130,7 @@ class Outcome:
 
 
 #: STATUS with counters of at least this many module names is written off the loop (issue #19).
-_LARGE_STATUS = 256
+_LARGE_STATUS = 2048
 
 
 @dataclass(slots=True)

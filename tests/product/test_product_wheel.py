@@ -8,9 +8,11 @@ user starts with runs from that environment, against a server started from it.
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
+import zipfile
 from importlib.metadata import version
 from pathlib import Path
 
@@ -41,9 +43,9 @@ def clean_python(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def _source_copy(into: Path) -> Path:
     """Copy what the wheel is built from (not a stale build/ folder of the working tree)."""
     into.mkdir()
-    for name in ("pyproject.toml", "README.md"):
+    for name in ("pyproject.toml", "README.md", "setup.py"):  # setup.py: the C data path
         shutil.copy2(ROOT / name, into / name)
-    skip = shutil.ignore_patterns("__pycache__", "*.egg-info", "build")
+    skip = shutil.ignore_patterns("__pycache__", "*.egg-info", "build", "*.so")
     for name in ("reference", "conformance", "schemas", "spec"):  # _data/ links to the last two
         shutil.copytree(ROOT / name, into / name, symlinks=True, ignore=skip)
     return into
@@ -122,3 +124,35 @@ def test_a_missing_extra_is_one_line(clean_python: Path, args: tuple[str, ...], 
     _no_traceback(done)
     assert done.returncode == 2
     assert f"pip install 'openair-kit[{extra}]'" in done.stderr
+
+
+def test_the_wheel_builds_without_a_compiler(tmp_path: Path) -> None:
+    """Issue #20: no compiler (CC=/bin/false) still gives a wheel, with the pure data path."""
+    source = _source_copy(tmp_path / "src")
+    env = {**os.environ, "CC": "/bin/false"}
+    cmd = [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path)]
+    cmd.append(str(source))
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=_RUN_S, env=env, check=False)
+    assert done.returncode == 0, done.stderr
+    (wheel,) = tmp_path.glob("openair_kit-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    assert "openair/server/datapath/pure.py" in names
+    assert not [n for n in names if "_native" in n and not n.endswith(".c")], names
+    venv = tmp_path / "venv"
+    _check([sys.executable, "-m", "venv", str(venv)])
+    python = venv / "bin" / "python"
+    _check([str(python), "-m", "pip", "install", "-q", str(wheel)])
+    probe = "from openair.server.datapath import select; print(select({}).name)"
+    done = subprocess.run([str(python), "-c", probe], capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "python"
+
+
+def test_the_wheel_holds_the_native_data_path(clean_python: Path) -> None:
+    """With a compiler (this machine has one), the installed wheel picks the native path."""
+    probe = "from openair.server.datapath import select; print(select({}).name)"
+    done = subprocess.run(
+        [str(clean_python), "-c", probe], capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "native"

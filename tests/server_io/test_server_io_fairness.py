@@ -150,10 +150,12 @@ def test_a_status_of_many_names_is_written_off_the_loop(monkeypatch: pytest.Monk
             assert bound is not None and ping is not None and ping.type == "PING_SUCCESS"
         asker, other = await Raw.open(server.port), await Raw.open(server.port)
         asker.send(Message(type="STATUS", to="CNS", sender="Asker"))
+        asker.send(Message(type="PING", to="CNS", sender="Asker"))  # in the same read, after
         await other.ping()  # served while the STATUS is being written
         released.set()
-        reply = await asker.recv()
+        reply, ping = await asker.recv(), await asker.recv()
         assert reply is not None and f"modules.Name{NAMES - 1}.requests" in reply.content
+        assert ping is not None and ping.type == "PING_SUCCESS"  # OA-SESS-2: in order
         for raw in [*names, asker, other]:
             await raw.close()
         await server.stop()

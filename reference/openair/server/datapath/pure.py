@@ -107,7 +107,12 @@ class PurePath:
             conn.frames_in += 1
             self.requests += 1
             conn._route(MESSAGE_FRAME, msg, received_ns)
-            if conn._closing or conn.waiting is not None or conn.role is not Role.RESPONDER:
+            if (
+                conn._closing
+                or conn.waiting is not None
+                or conn._decoding  # a reply being written off the loop (issue #19, OA-SESS-2)
+                or conn.role is not Role.RESPONDER
+            ):
                 break  # the reference path stops here too (OA-FRAME-9, OA-STREAM-7)
         return pos
 

@@ -1,7 +1,8 @@
-"""The whole conformance suite against the server on the Python and the native data path (#20).
+"""The whole conformance suite against the server on each data path (issue #20).
 
-The reference path runs the suite in tests/conformance/test_suite_reference.py; here the same
-suite runs once per data path, the server in a background thread as there. A case that is not
+tests/conformance/test_suite_reference.py runs the suite on the process default (native when
+the extension is built, else python); here the same suite runs once on each other path
+(reference, and python or native), the server in a background thread as there. A case that is not
 applicable must say why (as there); every other case must pass.
 """
 
@@ -17,16 +18,22 @@ from datapath_harness import datapaths
 from server_thread import ServerThread
 
 from openair.server.app import Server, ServerOptions, start_server
-from openair.server.datapath import DataPath
+from openair.server.datapath import DataPath, select
 from openair_conformance.engine import RunOptions, run
 from openair_conformance.model import Verdict
 from openair_conformance.registry import all_cases
 
-_PATHS = {name: path for name, path in datapaths().items() if path is not None}
+#: The process default (native when built, else python) serves tests/conformance already.
+_DEFAULT = select()
+_PATHS = {
+    name: path
+    for name, path in datapaths().items()
+    if (path.name if path is not None else "reference") != getattr(_DEFAULT, "name", "reference")
+}
 
 
 @contextlib.contextmanager
-def _serving(path: DataPath) -> Iterator[tuple[str, int]]:
+def _serving(path: DataPath | None) -> Iterator[tuple[str, int]]:
     async def factory() -> Server:
         server = await start_server(ServerOptions(host="127.0.0.1", port=0))
         server.datapath = path  # type: ignore[attr-defined]  # before any connection is accepted
@@ -55,10 +62,9 @@ def test_every_case_passes_on_the_data_path(name: str) -> None:
 
 
 def test_native_is_built_where_a_compiler_is() -> None:
-    """`make venv` builds the extension; the selector picks it when nothing is forced."""
-    from openair.server.datapath import select
-
+    """`make datapath-native` builds the extension; the selector picks it when nothing is forced
+    (and so test_suite_reference runs the suite on it)."""
     chosen: Any = select({})
-    if "native" not in _PATHS:
+    if "native" not in datapaths():
         pytest.skip("the native extension is not built in this environment")
     assert chosen.name == "native"

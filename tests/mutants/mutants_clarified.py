@@ -18,6 +18,7 @@ from typing import Any
 import pytest
 from mutants_core import Fn, mutant, wrap
 
+import openair.contentmatch
 import openair.registration
 import openair.types
 from openair.content import TcpLocation
@@ -53,7 +54,7 @@ def _text_spaced(mp: pytest.MonkeyPatch) -> None:
         _text(_wrapper(content), out)
         return " ".join(out)
 
-    mp.setattr(whiteboard, "text_content", spaced)
+    mp.setattr(openair.contentmatch, "text_content", spaced)
 
 
 # --- types and patterns (section 5) --------------------------------------------------------------

@@ -107,6 +107,20 @@ def wrap(mp: pytest.MonkeyPatch, owner: object, name: str, make: Callable[[Fn], 
     mp.setattr(owner, name, make(getattr(owner, name)))
 
 
+def wrap_select(mp: pytest.MonkeyPatch, make: Callable[[Fn], Fn]) -> None:
+    """Replace the history scan `select(messages, spec, *, now_ns, ...)` wherever it is called.
+
+    `Whiteboard.retrieve` (registration retrieves) and `AIR.Retrieve` (which scans a snapshot,
+    possibly off the loop: issue #19) both go through it, so a retrieve mutant patches it once
+    for both paths.
+    """
+    from openair.server import retrieve, whiteboard
+
+    mutated = make(whiteboard.select)
+    mp.setattr(whiteboard, "select", mutated)
+    mp.setattr(retrieve, "select", mutated)
+
+
 # --- the router's outcomes -----------------------------------------------------------------------
 
 Change = Callable[[Router, Delivery], Sequence[Delivery]]

@@ -15,7 +15,7 @@ from dataclasses import replace
 from typing import Any
 
 import pytest
-from mutants_core import Fn, mutant, wrap
+from mutants_core import Fn, mutant, wrap, wrap_select
 
 from openair.content import RetrieveSpec
 from openair.message import Message
@@ -115,12 +115,14 @@ def _queue_ring_8192(mp: pytest.MonkeyPatch) -> None:
 )
 def _lastmsec_from_newest(mp: pytest.MonkeyPatch) -> None:
     def make(original: Fn) -> Fn:
-        def retrieve(self: Whiteboard, spec: Any, *, now_ns: int, **kwargs: Any) -> Any:
-            return original(self, spec, now_ns=self.last_received_ns, **kwargs)
+        def select(messages: Any, spec: Any, *, now_ns: int, **kwargs: Any) -> Any:
+            newest = messages[-1].received if messages else None
+            newest_ns = newest.ms * 1_000_000 if newest is not None else now_ns
+            return original(messages, spec, now_ns=newest_ns, **kwargs)
 
-        return retrieve
+        return select
 
-    wrap(mp, Whiteboard, "retrieve", make)
+    wrap_select(mp, make)
 
 
 @mutant(
@@ -130,12 +132,12 @@ def _lastmsec_from_newest(mp: pytest.MonkeyPatch) -> None:
 )
 def _until_ignored(mp: pytest.MonkeyPatch) -> None:
     def make(original: Fn) -> Fn:
-        def retrieve(self: Whiteboard, spec: RetrieveSpec, **kwargs: Any) -> Any:
-            return original(self, replace(spec, until_time=None), **kwargs)
+        def select(messages: Any, spec: RetrieveSpec, **kwargs: Any) -> Any:
+            return original(messages, replace(spec, until_time=None), **kwargs)
 
-        return retrieve
+        return select
 
-    wrap(mp, Whiteboard, "retrieve", make)
+    wrap_select(mp, make)
 
 
 # --- slots of the stored copy that are rare on the wire (7.4) ---

@@ -1,9 +1,9 @@
 """Mutants of storing and retrieving (spec sections 7 and 9).
 
 Stored-copy mutants change the slots `Whiteboard.store_post` sets (through `derive` as the
-whiteboard module imports it); retrieve mutants wrap `Whiteboard.retrieve`, the content glob,
-the request reader `openair.server.retrieve.parse_request` and `answer_retrieve` as the router
-imports it.
+whiteboard module imports it); retrieve mutants wrap the history scan `select` (both retrieve
+paths), the content glob, the request reader `openair.server.retrieve.parse_request` and
+`prepare_retrieve` as the router imports it.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Any
 
 import pytest
 from lxml import etree
-from mutants_core import Fn, defer, mutant, wrap
+from mutants_core import Fn, defer, mutant, wrap, wrap_select
 
 import openair.objects
 from openair.content import ContentMatch, RetrieveSpec
@@ -129,16 +129,17 @@ def _retrieve_patch(
     """Run every retrieve unlimited with a changed spec, change the result, then apply latest."""
 
     def make(original: Fn) -> Fn:
-        def retrieve_(
-            self: Whiteboard, spec: RetrieveSpec, *, now_ns: int, **bounds: Any
+        def select_(
+            messages: Any, spec: RetrieveSpec, *, now_ns: int, **bounds: Any
         ) -> list[Message]:
-            found = original(self, replace(spec_change(spec), latest=0), now_ns=now_ns, **bounds)
+            changed = replace(spec_change(spec), latest=0)
+            found = original(messages, changed, now_ns=now_ns, **bounds)
             found = result_change(spec, found, now_ns)
             return found[: spec.latest] if spec.latest else found
 
-        return retrieve_
+        return select_
 
-    wrap(mp, Whiteboard, "retrieve", make)
+    wrap_select(mp, make)
 
 
 @mutant("retrieve-oldest-first", "retrieve results come oldest first", "OA-RET-6")
@@ -242,15 +243,15 @@ class _Fallback(dict[str, Whiteboard]):
 )
 def _unknown_board(mp: pytest.MonkeyPatch) -> None:
     def make(original: Fn) -> Fn:
-        def answer(msg: Message, addressee: Whiteboard, boards: Any, **kwargs: Any) -> Message:
+        def answer(msg: Message, addressee: Whiteboard, boards: Any, **kwargs: Any) -> Any:
             table = _Fallback(boards)
             table.fallback = addressee
-            result: Message = original(msg, addressee, table, **kwargs)
+            result = original(msg, addressee, table, **kwargs)
             return result
 
         return answer
 
-    wrap(mp, router, "answer_retrieve", make)
+    wrap(mp, router, "prepare_retrieve", make)
 
 
 @mutant("sender-case-insensitive", "a retrieve's sender matches in any case", "OA-RET-3")
@@ -274,13 +275,13 @@ class _Folded(dict[str, Whiteboard]):
 )
 def _board_case(mp: pytest.MonkeyPatch) -> None:
     def make(original: Fn) -> Fn:
-        def answer(msg: Message, addressee: Whiteboard, boards: Any, **kwargs: Any) -> Message:
-            result: Message = original(msg, addressee, _Folded(boards), **kwargs)
+        def answer(msg: Message, addressee: Whiteboard, boards: Any, **kwargs: Any) -> Any:
+            result = original(msg, addressee, _Folded(boards), **kwargs)
             return result
 
         return answer
 
-    wrap(mp, router, "answer_retrieve", make)
+    wrap(mp, router, "prepare_retrieve", make)
 
 
 @mutant("commands-stored", "AIR.Subscribe and AIR.Retrieve are stored like posts", "OA-WB-11")

@@ -70,8 +70,8 @@ test-python: $(STAMP) deps-browser deps-cluster datapath-native
 ## from the tree. Without a compiler the pure-Python data path is used (and tested) instead.
 datapath-native: $(STAMP)
 	@cc -O2 -shared -fPIC -I"$$($(PY) -c 'import sysconfig; print(sysconfig.get_paths()["include"])')" \
-		reference/openair/server/datapath/_native.c \
-		-o reference/openair/server/datapath/_native$$($(PY) -c 'import sysconfig; print(sysconfig.get_config_var("EXT_SUFFIX"))') \
+		reference/openair/server/aio/datapath/_native.c \
+		-o reference/openair/server/aio/datapath/_native$$($(PY) -c 'import sysconfig; print(sysconfig.get_config_var("EXT_SUFFIX"))') \
 		|| echo "datapath-native: no compiler; the pure-Python data path only"
 
 ## Install what is needed and pass every test.

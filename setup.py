@@ -9,8 +9,8 @@ from setuptools import Extension, setup
 setup(
     ext_modules=[
         Extension(
-            "openair.server.datapath._native",
-            sources=["reference/openair/server/datapath/_native.c"],
+            "openair.server.aio.datapath._native",
+            sources=["reference/openair/server/aio/datapath/_native.c"],
             optional=True,
         )
     ]

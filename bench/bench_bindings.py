@@ -9,9 +9,9 @@ Cases (the baseline, measured in the same run, in brackets):
   process on the CPUs the server (pinned to CPU 0) does not use, against a fresh server, so the
   whiteboard's history is the same size for every language. The ratio is client / Python.
 - the decode cost of one wakeup (a 256-byte post's `AIR.Instruct.Wakeup`, built with
-  `openair.wakeup.build_wakeup`): C++ `decode_message`, and `decode_message` + `parse_wakeup`
-  [Python's `openair.codec.decode_message`, and with `parse_wakeup`]. The ratio is C++ / Python
-  µs (below 1: C++ is cheaper).
+  `openair.protocol.wakeup.build_wakeup`): C++ `decode_message`, and `decode_message` +
+  `parse_wakeup` [Python's `openair.protocol.codec.decode_message`, and with `parse_wakeup`]. The
+  ratio is C++ / Python µs (below 1: C++ is cheaper).
 Nothing is built here: a missing binary or jar is reported as a 0 figure with a note.
 `python -m bench.bench_bindings post HOST PORT N SIZE` is the Python client's side.
 """
@@ -32,11 +32,11 @@ from pathlib import Path
 from bench import Result, per_call
 from bench.bench_server import _cpu_seconds, _pin_load, _process, _server_argv
 from openair.client import Module
-from openair.codec import decode_message, encode_message
-from openair.content import Phase, Trigger
-from openair.message import Message
-from openair.times import AirTime
-from openair.wakeup import build_wakeup, parse_wakeup
+from openair.protocol.codec import decode_message, encode_message
+from openair.protocol.content import Phase, Trigger
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.protocol.wakeup import build_wakeup, parse_wakeup
 
 BENCH = "bindings"
 _COUNT = int(os.environ.get("BENCH_BINDINGS_COUNT", "20000"))

@@ -23,10 +23,10 @@ from multiprocessing.synchronize import Event
 from bench import Result
 from bench.loadgen import SubscriberSpec, _ack, _setup_module, connect, frame, message, read_frames
 from bench.serving import spawn
-from openair.codec import decode_message, encode_message
-from openair.message import Message
-from openair.server.internal import InternalModule
-from openair.wakeup import parse_wakeup
+from openair.protocol.codec import decode_message, encode_message
+from openair.protocol.message import Message
+from openair.protocol.wakeup import parse_wakeup
+from openair.server.aio.internal import InternalModule
 
 BENCH = "internal"
 _ROUND_TRIPS = int(os.environ.get("BENCH_INTERNAL_ROUND_TRIPS", "2000"))

@@ -1,4 +1,4 @@
-"""Cost of finding the triggers that match a message type (`openair.matching.PatternIndex`).
+"""Cost of finding the triggers that match a message type (`openair.protocol.matching`).
 
 For 1, 100 and 10 000 registered patterns in a realistic mix (about 55 % `Prefix.*`, 44 % exact
 types, 1 % general globs of which at most 3 have no literal segment before their first `*`), it
@@ -14,7 +14,7 @@ import time
 from collections.abc import Callable
 
 from bench import Result, per_call
-from openair.matching import PatternIndex, ascii_fold, matches
+from openair.protocol.matching import PatternIndex, ascii_fold, matches
 
 _SEED = 20261122
 _SIZES = (1, 100, 10_000)

@@ -33,10 +33,10 @@ from bench.loadgen import (
     request,
 )
 from bench.serving import spawn
-from openair.codec import decode_message
-from openair.message import Message
-from openair.server.internal import InternalModule
-from openair.wakeup import parse_wakeup
+from openair.protocol.codec import decode_message
+from openair.protocol.message import Message
+from openair.protocol.wakeup import parse_wakeup
+from openair.server.aio.internal import InternalModule
 
 BENCH = "priority"
 _COUNT = int(os.environ.get("BENCH_PRIORITY_COUNT", "20000"))

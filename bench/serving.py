@@ -16,10 +16,10 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from openair.server.app import ServerOptions, start_server
-from openair.server.config import load_config
-from openair.server.delivery import DeliveryOptions
-from openair.server.scheduling import DEFAULT_TURN_BUDGET
+from openair.server.aio.app import ServerOptions, start_server
+from openair.server.aio.delivery import DeliveryOptions
+from openair.server.aio.scheduling import DEFAULT_TURN_BUDGET
+from openair.server.core.config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -57,7 +57,7 @@ class ReferenceServer(ServerThread):
     """The reference server: `ServerOptions` fields as keywords, on 127.0.0.1 and a free port."""
 
     def __init__(self, **options: Any) -> None:
-        from openair.server.app import ServerOptions, start_server
+        from openair.server.aio.app import ServerOptions, start_server
 
         opts = ServerOptions(host="127.0.0.1", port=0, **options)
         super().__init__(lambda: start_server(opts))

@@ -92,7 +92,7 @@ def _isort_key(name: str) -> tuple[int, str]:
 
 
 def python_source(rows: list[Row]) -> str:
-    """Render reference/openair/errors.py."""
+    """Render reference/openair/protocol/errors.py."""
     out = [
         '"""OpenAIR error conditions.',
         "",
@@ -103,7 +103,7 @@ def python_source(rows: list[Row]) -> str:
         "",
         "import enum",
         "",
-        "from openair._errors_base import (",
+        "from openair.protocol._errors_base import (",
         "    Blame,",
         "    LocalProtocolError,",
         "    OpenAIRError,",
@@ -299,7 +299,7 @@ def java_source(rows: list[Row]) -> str:
 
 
 TARGETS = {
-    ROOT / "reference" / "openair" / "errors.py": python_source,
+    ROOT / "reference" / "openair" / "protocol" / "errors.py": python_source,
 }
 OPTIONAL_TARGETS = {
     # Written only when the binding's folder exists (the bindings arrive in later work).

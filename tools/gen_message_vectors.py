@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from openair.codec import decode_message, encode_message
+from openair.protocol.codec import decode_message, encode_message
 
 VECTORS = Path(__file__).resolve().parent.parent / "spec" / "vectors" / "messages"
 FORMAT = "openair-message-vectors/1"

@@ -14,10 +14,10 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 
 from bench.stress.wire import Raw, frame_of
-from openair.codec import to_frame
-from openair.framing import FrameTag, encode_frame
-from openair.message import Message
-from openair.objects import parse_dictionary
+from openair.protocol.codec import to_frame
+from openair.protocol.framing import FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.protocol.objects import parse_dictionary
 
 __all__ = ["ATTACKS", "Attack", "Figures", "status"]
 

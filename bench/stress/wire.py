@@ -11,9 +11,9 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from openair.codec import from_frame, to_frame
-from openair.framing import FrameReader, FrameTag, encode_frame
-from openair.message import Message
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.framing import FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
 
 __all__ = ["Canary", "Raw", "frame_of", "p99"]
 

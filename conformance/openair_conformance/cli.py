@@ -22,8 +22,9 @@ from typing import Any, TextIO, TypeVar
 
 import click
 
-from openair.auth import SecretsError, load_secrets
 from openair.catalogue import Requirement, load_catalogue
+from openair.protocol.auth import SecretsError
+from openair.secretsfile import load_secrets
 from openair_conformance.engine import (
     DEFAULT_FAIL_ON,
     DEFAULT_STREAM,

@@ -1,6 +1,6 @@
 """What a server shows the applications attached to it: the observer interface.
 
-The reference server exports this interface (`Server.observe`, server/app.py) so that the
+The reference server exports this interface (`Server.observe`, server/aio/app.py) so that the
 applications beside the protocol core (the web monitor, a recorder) watch it without reaching
 into its modules: they see each stored post with the deliveries it caused (`Delivered`), and
 each delivery a module acknowledged (`Acknowledged`). Both are read-only views; the server's
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from openair.message import Message
+from openair.protocol.message import Message
 
 __all__ = ["ENVELOPE_BYTES", "Acknowledged", "Delivered", "ServerObserver", "message_bytes"]
 

@@ -6,7 +6,7 @@ import asyncio
 import json
 
 from openair.client import Module
-from openair.server.app import ServerOptions, start_server
+from openair.server.aio.app import ServerOptions, start_server
 
 
 async def _get(port: int, path: str) -> tuple[int, dict[str, str], bytes]:

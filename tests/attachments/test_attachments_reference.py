@@ -11,9 +11,9 @@ from typing import Any
 import pytest
 
 from openair.client import FailedReplyError, Module, WakeupEvent
-from openair.content import RetrieveSpec, Trigger
-from openair.server.app import ServerOptions, start_server
-from openair.server.config import ServerLimits
+from openair.protocol.content import RetrieveSpec, Trigger
+from openair.server.aio.app import ServerOptions, start_server
+from openair.server.core.config import ServerLimits
 
 TIMEOUT = 20.0
 

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from openair.content import Trigger
-from openair.errors import RegistrationInvalidError
-from openair.message import Message
-from openair.registration import encode_registration, parse_registration
-from openair.wakeup import fit_attachments
+from openair.protocol.content import Trigger
+from openair.protocol.errors import RegistrationInvalidError
+from openair.protocol.message import Message
+from openair.protocol.registration import encode_registration, parse_registration
+from openair.protocol.wakeup import fit_attachments
 
 
 def test_bare_stream_elements_are_a_registration() -> None:

@@ -8,11 +8,11 @@ from typing import Any
 
 import pytest
 
-from openair._errors_base import OpenAIRError
-from openair.attachments import parse_results
-from openair.codec import decode_message, encode_message
-from openair.message import Message
-from openair.wakeup import parse_wakeup
+from openair.protocol._errors_base import OpenAIRError
+from openair.protocol.attachments import parse_results
+from openair.protocol.codec import decode_message, encode_message
+from openair.protocol.message import Message
+from openair.protocol.wakeup import parse_wakeup
 
 ROOT = Path(__file__).resolve().parents[2] / "spec" / "vectors" / "attachments"
 CASES: list[dict[str, Any]] = json.loads((ROOT / "manifest.json").read_text())["cases"]

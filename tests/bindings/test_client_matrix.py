@@ -21,7 +21,7 @@ import lxml.html
 import pytest
 from bindings_support import require
 
-from openair.server.app import DEFAULT_EXTENSIONS
+from openair.server.aio.app import DEFAULT_EXTENSIONS
 from openair_conformance.clientmode.scenario import Scenario, load_scenarios
 from openair_conformance.reporters.jsonreport import load_report
 

@@ -19,10 +19,10 @@ from pathlib import Path
 import pytest
 from bindings_support import ROOT, require
 
-from openair.auth import secrets_xml
+from openair.protocol.auth import secrets_xml
 from openair.client import Module
 from openair.client.auth import client_tls_context
-from openair.content import RetrieveSpec
+from openair.protocol.content import RetrieveSpec
 
 POSTER = ROOT / "bindings" / "cpp" / "build" / "poster"
 SECRETS = {"CppPoster": "cpp-poster-secret-0123456789", "PyReader": "py-reader-secret-01234567"}

@@ -35,9 +35,9 @@ from bindings_support import (
 )
 
 from openair.client import Module, WakeupEvent
-from openair.content import RetrieveSpec, Trigger
-from openair.message import Message
-from openair.server.app import ServerOptions, start_server
+from openair.protocol.content import RetrieveSpec, Trigger
+from openair.protocol.message import Message
+from openair.server.aio.app import ServerOptions, start_server
 from openair_conformance.model import RunSummary
 from openair_conformance.shim.driver import ShimDriver
 

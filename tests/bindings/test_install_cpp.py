@@ -28,7 +28,7 @@ from bindings_support import ROOT, require
 from server_thread import ReferenceServer
 
 from openair.client import BlockingModule
-from openair.content import RetrieveSpec
+from openair.protocol.content import RetrieveSpec
 
 CPP_DIR = ROOT / "bindings" / "cpp"
 BUILD = CPP_DIR / "build"

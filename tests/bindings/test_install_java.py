@@ -29,7 +29,7 @@ from bindings_support import ROOT
 from server_thread import ReferenceServer
 
 from openair.client import BlockingModule
-from openair.content import RetrieveSpec
+from openair.protocol.content import RetrieveSpec
 
 JAVA_DIR = ROOT / "bindings" / "java"
 CONSUMER = JAVA_DIR / "examples" / "consumer"

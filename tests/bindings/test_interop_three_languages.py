@@ -28,8 +28,8 @@ from bindings_support import require
 
 from openair.client import Module
 from openair.client.shim import message_object, wakeup_object
-from openair.content import RetrieveSpec, Trigger
-from openair.server.app import ServerOptions, start_server
+from openair.protocol.content import RetrieveSpec, Trigger
+from openair.server.aio.app import ServerOptions, start_server
 from openair_conformance.shim.driver import ShimDriver
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from server_thread import ReferenceServer as ServerThread  # noqa: F401 (re-exported)
 
-from openair.codec import from_frame, to_frame
-from openair.framing import FrameLimits, FrameReader, FrameTag, encode_frame
-from openair.message import Message
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.framing import FrameLimits, FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
 
 #: A fixed clock for sans-I/O tests: 2026-11-22T10:00:00.123456 UTC in nanoseconds.
 FIXED_NS = 1_795_341_600_123_456_789

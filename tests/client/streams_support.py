@@ -13,8 +13,8 @@ from contextlib import asynccontextmanager
 from typing import Any
 
 from openair.client import Module
-from openair.server.app import ServerOptions, start_server
-from openair.server.config import ServerConfig, ServerLimits, parse_config
+from openair.server.aio.app import ServerOptions, start_server
+from openair.server.core.config import ServerConfig, ServerLimits, parse_config
 
 TIMEOUT = 30.0
 

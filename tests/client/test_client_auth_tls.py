@@ -17,12 +17,12 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from openair.auth import secrets_xml
 from openair.client import Module
 from openair.client.auth import AuthRefusedError, client_tls_context
-from openair.content import Trigger
-from openair.errors import OpenAIRError
-from openair.server.app import ServerOptions, start_server
+from openair.protocol.auth import secrets_xml
+from openair.protocol.content import Trigger
+from openair.protocol.errors import OpenAIRError
+from openair.server.aio.app import ServerOptions, start_server
 from openair.server.cli_serve import serve
 
 SECRETS = {"Alice": "alice-secret-0123456789", "Bob": "bob-secret-0123456789ab"}

@@ -9,8 +9,8 @@ import pytest
 from client_helpers import ServerThread
 
 from openair.client import BlockingModule
-from openair.content import RetrieveSpec
-from openair.errors import ApiMisuseError
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.errors import ApiMisuseError
 
 
 @pytest.fixture(scope="module")

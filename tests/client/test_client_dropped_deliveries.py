@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 
 from openair.client import Module
-from openair.codec import from_frame
-from openair.framing import Frame as WireFrame
-from openair.framing import FrameLimits, FrameReader, FrameTag, encode_frame
-from openair.message import Message
+from openair.protocol.codec import from_frame
+from openair.protocol.framing import Frame as WireFrame
+from openair.protocol.framing import FrameLimits, FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
 
 LEGACY = Path(__file__).resolve().parents[2] / "spec" / "vectors" / "legacy"
 BARRIER = (LEGACY / "psy2-cc003-barrier-wakeup.xml").read_bytes()

@@ -20,13 +20,13 @@ from xml.sax.saxutils import escape, quoteattr
 import pytest
 
 from openair.client import Module
-from openair.codec import from_frame
-from openair.content import RetrieveSpec, Trigger
-from openair.errors import RequestTimeoutError
-from openair.framing import Frame, FrameLimits, FrameReader, FrameTag
-from openair.matching import matches
-from openair.message import Message
-from openair.registration import parse_registration, parse_retrieves
+from openair.protocol.codec import from_frame
+from openair.protocol.content import RetrieveSpec, Trigger
+from openair.protocol.errors import RequestTimeoutError
+from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag
+from openair.protocol.matching import matches
+from openair.protocol.message import Message
+from openair.protocol.registration import parse_registration, parse_retrieves
 
 PSYCLONE_CONNECT_DELAY = 0.2  # Psyclone waits ~200 ms after connecting before its first frame
 SERVER_LATENCY = 0.005  # time the fake takes per request: a second request would arrive in it

@@ -10,9 +10,9 @@ import pytest
 from streams_support import module, run
 
 from openair.client import FailedReplyError, Module, WakeupEvent
-from openair.content import RetrieveSpec, Trigger
-from openair.errors import ConnectionClosedError, WhiteboardUnknownError
-from openair.server.app import ServerOptions, start_server
+from openair.protocol.content import RetrieveSpec, Trigger
+from openair.protocol.errors import ConnectionClosedError, WhiteboardUnknownError
+from openair.server.aio.app import ServerOptions, start_server
 
 
 @asynccontextmanager

@@ -16,16 +16,16 @@ from openair.client.session import (
     Role,
     State,
 )
-from openair.errors import (
+from openair.protocol.errors import (
     ApiMisuseError,
     ConnectionClosedError,
     FrameTruncatedError,
     FrameUnknownTagError,
     MessageInvalidError,
 )
-from openair.framing import FrameTag
-from openair.message import Message
-from openair.times import AirTime
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 
 
 class Clock:

@@ -28,7 +28,7 @@ from openair.client.cli_stream import (
     tail,
 )
 from openair.client.stream_wire import ReceivedSample
-from openair.datasample import DataSample
+from openair.protocol.datasample import DataSample
 
 
 @pytest.fixture(scope="module")

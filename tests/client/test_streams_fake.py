@@ -15,10 +15,10 @@ from client_helpers import wire
 from streams_support import run
 
 from openair.client import Module
-from openair.codec import from_frame
-from openair.datasample import DataSample, encode_chunk
-from openair.framing import Frame, FrameLimits, FrameReader, FrameTag
-from openair.message import Message
+from openair.protocol.codec import from_frame
+from openair.protocol.datasample import DataSample, encode_chunk
+from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag
+from openair.protocol.message import Message
 
 Script = Callable[[asyncio.StreamReader, asyncio.StreamWriter], Awaitable[None]]
 

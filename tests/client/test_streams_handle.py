@@ -8,8 +8,8 @@ import pytest
 from streams_support import module, run, server
 
 from openair.client.streams import StreamHandle
-from openair.datasample import DataSample
-from openair.errors import (
+from openair.protocol.datasample import DataSample
+from openair.protocol.errors import (
     ApiMisuseError,
     ConnectionClosedError,
     LockUnknownError,
@@ -17,8 +17,8 @@ from openair.errors import (
     SampleUnknownError,
     StreamUnknownError,
 )
-from openair.server.app import DEFAULT_EXTENSIONS, ServerOptions, start_server
-from openair.times import AirTime
+from openair.protocol.times import AirTime
+from openair.server.aio.app import DEFAULT_EXTENSIONS, ServerOptions, start_server
 
 
 def payloads(samples: list[DataSample]) -> list[bytes]:

@@ -17,7 +17,7 @@ from streams_support import module, run, server
 
 from openair.client import Module, WakeupEvent
 from openair.client.stream_wire import ReceivedSample
-from openair.content import StreamRef, Trigger
+from openair.protocol.content import StreamRef, Trigger
 
 SENTENCE = "Input.Perc.UniM.Hear.Voice.Speak.Sentence"
 AUDIO = "Input.Audio.Perception"

@@ -8,7 +8,7 @@ import pytest
 from streams_support import module, run, server
 
 from openair.client.stream_wire import ReceivedSample
-from openair.errors import ApiMisuseError, StreamUnknownError
+from openair.protocol.errors import ApiMisuseError, StreamUnknownError
 
 
 def test_push_subscriber_gets_every_new_sample_in_order() -> None:

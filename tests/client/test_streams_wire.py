@@ -33,9 +33,9 @@ from openair.client.stream_wire import (
     wait_type,
 )
 from openair.client.streams import error_from
-from openair.codec import encode_message
-from openair.datasample import DataSample, chunk_parts, encode_chunk
-from openair.errors import (
+from openair.protocol.codec import encode_message
+from openair.protocol.datasample import DataSample, chunk_parts, encode_chunk
+from openair.protocol.errors import (
     ApiMisuseError,
     CommandUnknownError,
     ContentInvalidError,
@@ -43,10 +43,10 @@ from openair.errors import (
     SampleUnknownError,
     StreamUnknownError,
 )
-from openair.framing import FrameLimits, FrameReader, FrameTag
-from openair.message import Message, Slot
-from openair.objects import parse_root, parse_time
-from openair.times import AirTime
+from openair.protocol.framing import FrameLimits, FrameReader, FrameTag
+from openair.protocol.message import Message, Slot
+from openair.protocol.objects import parse_root, parse_time
+from openair.protocol.times import AirTime
 
 
 def conn(window: int = 4) -> ClientConnection:

@@ -20,8 +20,8 @@ import openair.client.shim as shim
 from openair.client.link import Link
 from openair.client.module import Module
 from openair.client.session import ClientConnection, Invalid, Request
-from openair.framing import Frame, FrameTag
-from openair.message import Message
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message
 
 WAKEUP = "AIR.Instruct.Wakeup"
 

@@ -16,10 +16,10 @@ from lxml import etree
 
 from openair.catalogue import load_catalogue
 from openair.client.shim import Shim, error_code, message_object
-from openair.errors import RequestTimeoutError, XmlMalformedError
-from openair.message import Message
+from openair.protocol.errors import RequestTimeoutError, XmlMalformedError
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 from openair.resources import spec_path
-from openair.times import AirTime
 from openair_conformance.client_cli import conform_client
 from openair_conformance.clientmode.scenario import (
     SCHEMA_PATH,

@@ -14,8 +14,8 @@ import pytest
 from netcluster import Cluster, run_in
 
 from openair.client.module import Module
-from openair.content import RetrieveSpec
-from openair.message import Message
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.message import Message
 
 pytestmark = pytest.mark.slow
 

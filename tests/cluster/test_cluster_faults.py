@@ -18,9 +18,9 @@ import pytest
 from netcluster import Cluster, Node, run_in
 
 from openair.client.module import Module
-from openair.content import RetrieveSpec
-from openair.errors import OpenAIRError
-from openair.message import Message
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.message import Message
 
 pytestmark = pytest.mark.slow
 

@@ -14,10 +14,11 @@ from click.testing import CliRunner
 
 from openair.cluster import open_cluster_store
 from openair.cluster.store import decode_copy, encode_copy, parse_spec, stream_name, subject
-from openair.message import Message
+from openair.protocol.message import Message
+from openair.server.aio.stores import open_store
 from openair.server.cli_serve import serve
-from openair.server.config import ConfigError, parse_config
-from openair.server.store import StoreSpecError, open_store
+from openair.server.core.config import ConfigError, parse_config
+from openair.server.core.store import StoreSpecError
 
 
 def _spec(attrs: str) -> bytes:
@@ -39,7 +40,7 @@ def test_a_lone_server_warns_that_it_hosts_a_placed_whiteboard(
 ) -> None:
     import asyncio
 
-    from openair.server.app import ServerOptions, start_server
+    from openair.server.aio.app import ServerOptions, start_server
 
     config = parse_config(_spec('host="m3"'), source="t")
 

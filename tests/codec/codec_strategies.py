@@ -11,8 +11,8 @@ from __future__ import annotations
 from hypothesis import strategies as st
 from lxml import etree
 
-from openair.message import MAX_PRIORITY, MIN_PRIORITY, Message, Reference, Slot
-from openair.times import AirTime
+from openair.protocol.message import MAX_PRIORITY, MIN_PRIORITY, Message, Reference, Slot
+from openair.protocol.times import AirTime
 
 # Every character XML 1.0 allows (OA-MSG-14); XML-special ones are made frequent on purpose.
 xml_chars = st.one_of(

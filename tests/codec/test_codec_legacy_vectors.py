@@ -15,10 +15,10 @@ import pytest
 from vector_fields import check_fields, first_nested
 
 from openair.catalogue import load_catalogue
-from openair.codec import decode_message, decode_with_lxml, encode_message
-from openair.errors import MessageInvalidError, error_for
-from openair.fastcodec import fast_decode
-from openair.wakeup import parse_wakeup
+from openair.protocol.codec import decode_message, decode_with_lxml, encode_message
+from openair.protocol.errors import MessageInvalidError, error_for
+from openair.protocol.fastcodec import fast_decode
+from openair.protocol.wakeup import parse_wakeup
 
 ROOT = Path(__file__).resolve().parents[2]
 VECTORS = ROOT / "spec" / "vectors" / "legacy"

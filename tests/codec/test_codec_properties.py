@@ -9,16 +9,16 @@ from hypothesis import given
 from hypothesis import strategies as st
 from lxml import etree
 
-from openair.codec import (
+from openair.protocol.codec import (
     decode_message,
     encode_message,
     from_frame,
     message_to_element,
     to_frame,
 )
-from openair.framing import FrameTag, binary_sizes
-from openair.message import Message
-from openair.xmlsafe import parse_xml
+from openair.protocol.framing import FrameTag, binary_sizes
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import parse_xml
 
 # Envelope elements whose attribute names are the protocol's (OA-MSG-3); extension slots keep
 # their names as written, and embedded content is opaque, so neither is renamed.

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from lxml import etree
 
-from openair.codec import (
+from openair.protocol.codec import (
     decode_message,
     encode_message,
     from_frame,
@@ -15,17 +15,17 @@ from openair.codec import (
     time_to_element,
     to_frame,
 )
-from openair.errors import (
+from openair.protocol.errors import (
     ApiMisuseError,
     MessageInvalidError,
     XmlForbiddenError,
     XmlMalformedError,
     XmlTooDeepError,
 )
-from openair.framing import Frame, FrameTag
-from openair.message import Message, Reference, Slot
-from openair.times import AirTime
-from openair.xmlsafe import XmlLimits, parse_xml
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message, Reference, Slot
+from openair.protocol.times import AirTime
+from openair.protocol.xmlsafe import XmlLimits, parse_xml
 
 POSTED = b'<postedTime sec="1795328371" msec="396"/>'
 

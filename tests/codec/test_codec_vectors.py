@@ -19,9 +19,9 @@ from lxml import etree
 from vector_fields import check_fields, first_nested
 
 from openair.catalogue import load_catalogue
-from openair.codec import decode_message, encode_message
-from openair.errors import error_for
-from openair.xmlsafe import parse_xml
+from openair.protocol.codec import decode_message, encode_message
+from openair.protocol.errors import error_for
+from openair.protocol.xmlsafe import parse_xml
 
 ROOT = Path(__file__).resolve().parents[2]
 VECTORS = ROOT / "spec" / "vectors" / "messages"

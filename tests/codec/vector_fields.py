@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from openair.codec import message_from_element
-from openair.message import Message, Reference
-from openair.times import AirTime
-from openair.xmlsafe import parse_fragment
+from openair.protocol.codec import message_from_element
+from openair.protocol.message import Message, Reference
+from openair.protocol.times import AirTime
+from openair.protocol.xmlsafe import parse_fragment
 
 
 def manifest_time(value: list[int] | None) -> AirTime | None:

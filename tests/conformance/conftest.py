@@ -1,6 +1,6 @@
 """Fixtures for the conformance engine tests: servers in a background thread, a recorder.
 
-`target` is the reference server (`openair.server.app.start_server`) when it is installed, else
+`target` is the reference server (`openair.server.aio.app.start_server`) when it is installed, else
 `FakeServer` (test_engine_support.py).
 """
 
@@ -15,7 +15,7 @@ from test_engine_support import FakeServer, Recorder, ServerThread
 
 def _reference_factory() -> Any | None:
     try:
-        from openair.server.app import ServerOptions, start_server
+        from openair.server.aio.app import ServerOptions, start_server
     except ImportError:
         return None
     return lambda: start_server(ServerOptions(host="127.0.0.1", port=0))

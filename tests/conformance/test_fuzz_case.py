@@ -34,8 +34,8 @@ from openair_conformance.fuzz.model import (
 from openair_conformance.model import CaseResult, Verdict
 from openair_conformance.registry import get_case
 
-app = pytest.importorskip("openair.server.app")
-router = pytest.importorskip("openair.server.router")
+app = pytest.importorskip("openair.server.aio.app")
+router = pytest.importorskip("openair.server.core.router")
 
 VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors" / "wildcards" / "wildcards.json"
 
@@ -158,9 +158,9 @@ def _ignore_cc(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def _case_sensitive(monkeypatch: pytest.MonkeyPatch) -> None:
-    import openair.matching
+    import openair.protocol.matching
 
-    monkeypatch.setattr(openair.matching, "ascii_fold", lambda text: text)
+    monkeypatch.setattr(openair.protocol.matching, "ascii_fold", lambda text: text)
 
 
 @pytest.mark.parametrize("breakage", [_ignore_cc, _case_sensitive], ids=["cc", "case"])

@@ -20,13 +20,13 @@ import pytest
 from click.testing import CliRunner
 from server_thread import ServerThread
 
-from openair.auth import secrets_xml
+from openair.protocol.auth import secrets_xml
 from openair_conformance.cli import conform
 from openair_conformance.engine import RunOptions, run
 from openair_conformance.model import CaseResult, RunSummary, Verdict
 from openair_conformance.registry import all_cases
 
-app = pytest.importorskip("openair.server.app")
+app = pytest.importorskip("openair.server.aio.app")
 
 SECRETS = {"AuthCaseA": "secret-of-case-module-a-0123", "AuthCaseB": "secret-of-case-module-b-4567"}
 AUTH_CASES = sorted(c.info.id for c in all_cases() if c.info.id.startswith("AUTH-"))

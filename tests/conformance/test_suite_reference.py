@@ -22,8 +22,8 @@ from openair_conformance.engine import RunOptions, run
 from openair_conformance.model import CaseResult, RunSummary, Verdict
 from openair_conformance.registry import all_cases
 
-app = pytest.importorskip("openair.server.app")
-config = pytest.importorskip("openair.server.config")
+app = pytest.importorskip("openair.server.aio.app")
+config = pytest.importorskip("openair.server.core.config")
 
 #: Cases run again with small limits (issue #15: overflow and retries are checked at the
 #: defaults, in the full run, AND at small limits), or not applicable at the default limits

@@ -21,16 +21,16 @@ from typing import Any
 
 import pytest
 
-from openair.codec import to_frame
-from openair.framing import FrameReader, FrameTag, encode_frame
-from openair.message import Message
-from openair.server import app
-from openair.server import commands as cmd
-from openair.server.app import Server, ServerOptions, start_server
-from openair.server.datapath import DataPath
-from openair.server.datapath.pure import PurePath
-from openair.server.protocol import Role, ServerConnection
-from openair.times import AirTime
+from openair.protocol.codec import to_frame
+from openair.protocol.framing import FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.server.aio import app
+from openair.server.aio.app import Server, ServerOptions, start_server
+from openair.server.aio.datapath import DataPath
+from openair.server.aio.datapath.pure import PurePath
+from openair.server.aio.protocol import Role, ServerConnection
+from openair.server.core import commands as cmd
 
 T0 = 1_764_300_000_000_000_000  # the fixed clock's start (ns)
 TRIGGERS = (
@@ -43,7 +43,7 @@ def datapaths() -> dict[str, DataPath | None]:
     """The data paths to compare: reference, python, and native when the extension is built."""
     paths: dict[str, DataPath | None] = {"reference": None, "python": PurePath()}
     try:
-        from openair.server.datapath.native import NativePath
+        from openair.server.aio.datapath.native import NativePath
     except ImportError:
         return paths
     paths["native"] = NativePath()

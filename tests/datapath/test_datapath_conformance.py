@@ -17,8 +17,8 @@ import pytest
 from datapath_harness import datapaths
 from server_thread import ServerThread
 
-from openair.server.app import Server, ServerOptions, start_server
-from openair.server.datapath import DataPath, select
+from openair.server.aio.app import Server, ServerOptions, start_server
+from openair.server.aio.datapath import DataPath, select
 from openair_conformance.engine import RunOptions, run
 from openair_conformance.model import Verdict
 from openair_conformance.registry import all_cases

@@ -29,11 +29,11 @@ from datapath_harness import (
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from openair.framing import FrameTag
-from openair.message import Message
-from openair.server.datapath import DataPath
-from openair.server.datapath.pure import PurePath
-from openair.times import AirTime
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.server.aio.datapath import DataPath
+from openair.server.aio.datapath.pure import PurePath
 
 _POSTED = AirTime(sec=1_764_300_000, msec=7)
 _TYPES = ["Test.A", "Test.B.c", "Late.X", "Other.Y", "Bad..Type", "AIR.Subscribe", "RETRIEVE"]

@@ -7,14 +7,14 @@ from datapath_harness import datapaths, frame
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from openair.codec import from_frame
-from openair.errors import OpenAIRError
-from openair.framing import Frame, FrameTag
-from openair.message import Message
-from openair.server.datapath import select
-from openair.server.datapath.base import ACK_XML
-from openair.server.datapath.pure import split_plain
-from openair.times import AirTime
+from openair.protocol.codec import from_frame
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.server.aio.datapath import select
+from openair.server.aio.datapath.base import ACK_XML
+from openair.server.aio.datapath.pure import split_plain
 
 
 def test_the_selector_honours_openair_datapath() -> None:
@@ -33,7 +33,7 @@ def test_native_is_refused_when_forced_without_the_extension(
 ) -> None:
     import sys
 
-    monkeypatch.setitem(sys.modules, "openair.server.datapath.native", None)  # ImportError
+    monkeypatch.setitem(sys.modules, "openair.server.aio.datapath.native", None)  # ImportError
     with pytest.raises(ImportError):
         select({"OPENAIR_DATAPATH": "native"})
     fallback = select({})

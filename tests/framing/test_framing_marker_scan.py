@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from openair.framing import Frame, FrameReader, FrameTag, encode_frame
+from openair.protocol.framing import Frame, FrameReader, FrameTag, encode_frame
 
 _PAD = "x" * 300
 

@@ -8,8 +8,8 @@ import re
 from hypothesis import given
 from hypothesis import strategies as st
 
-from openair.errors import RemoteProtocolError
-from openair.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
+from openair.protocol.errors import RemoteProtocolError
+from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
 
 _MARKER = re.compile(rb"binarysizes", re.IGNORECASE)
 _TAG_FIELDS = {b"Message\0", b"Receive\0", b"BinaryM\0"}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from openair.errors import (
+from openair.protocol.errors import (
     ApiMisuseError,
     BinarySizesInvalidError,
     BinaryTooLargeError,
@@ -12,7 +12,7 @@ from openair.errors import (
     FrameTruncatedError,
     FrameUnknownTagError,
 )
-from openair.framing import (
+from openair.protocol.framing import (
     DEFAULT_MAX_BINARY,
     DEFAULT_MAX_XML,
     Frame,

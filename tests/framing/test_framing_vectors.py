@@ -19,8 +19,8 @@ from typing import Any
 import pytest
 
 from openair.catalogue import load_catalogue
-from openair.errors import ERRORS, RemoteProtocolError
-from openair.framing import Frame, FrameLimits, FrameReader, FrameTag
+from openair.protocol.errors import ERRORS, RemoteProtocolError
+from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag
 
 ROOT = Path(__file__).resolve().parents[2]
 FOLDER = ROOT / "spec" / "vectors" / "frames"

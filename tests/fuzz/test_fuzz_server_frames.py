@@ -22,10 +22,10 @@ from hypothesis import strategies as st
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "server_wire"))
 from wire_helpers import RawConn, ServerThread, collection_messages, now
 
-from openair.codec import encode_message
-from openair.framing import Frame, FrameTag, encode_frame
-from openair.message import Message
-from openair.times import AirTime
+from openair.protocol.codec import encode_message
+from openair.protocol.framing import Frame, FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 
 
 class Shared:

@@ -122,7 +122,7 @@ def test_imports_are_read_wherever_they_run(tmp_path: Path) -> None:
         "from . import sibling\n"
         "from ..other import thing\n"
         "if TYPE_CHECKING:\n"
-        "    from openair.server.app import Server\n"
+        "    from openair.server.aio.app import Server\n"
         "def later():\n"
         "    import openair_conformance.cli\n"
         "    table = {'x': 'openair.recording.cli_recording:record'}\n"
@@ -132,4 +132,4 @@ def test_imports_are_read_wherever_they_run(tmp_path: Path) -> None:
     assert {"pkg.sub.sibling", "pkg.other", "pkg.other.thing"} <= targets
     assert {"openair_conformance.cli", "openair.monitor"} <= targets
     assert "openair.recording.cli_recording" in targets  # named in a "module:attribute" table
-    assert "openair.server.app" not in targets  # TYPE_CHECKING imports never run
+    assert "openair.server.aio.app" not in targets  # TYPE_CHECKING imports never run

@@ -38,15 +38,15 @@ from typing import Any
 
 from lxml import etree
 
-from openair.codec import to_frame
-from openair.errors import ApiMisuseError
-from openair.framing import Frame, FrameTag, encode_frame
-from openair.message import Message
-from openair.server.app import Server, ServerOptions
-from openair.server.config import default_config
-from openair.server.protocol import Role, ServerConnection
-from openair.server.router import Outcome
-from openair.server.store import open_store
+from openair.protocol.codec import to_frame
+from openair.protocol.errors import ApiMisuseError
+from openair.protocol.framing import Frame, FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.server.aio.app import Server, ServerOptions
+from openair.server.aio.protocol import Role, ServerConnection
+from openair.server.aio.stores import open_store
+from openair.server.core.config import default_config
+from openair.server.core.router import Outcome
 
 __all__ = ["LegacyOptions", "LegacyServer", "legacy_xml", "start_legacy"]
 

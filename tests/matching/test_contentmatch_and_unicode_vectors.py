@@ -9,10 +9,10 @@ from typing import Any
 
 import pytest
 
-from openair.contentmatch import canonical_xml_text, text_content
+from openair.protocol.contentmatch import canonical_xml_text, text_content
+from openair.protocol.types import EXCLUDED_RANGES, is_valid_pattern, is_valid_type
 from openair.resources import spec_path
-from openair.server.whiteboard import content_glob
-from openair.types import EXCLUDED_RANGES, is_valid_pattern, is_valid_type
+from openair.server.core.whiteboard import content_glob
 
 CONTENT_ROWS: list[dict[str, Any]] = json.loads(
     spec_path("vectors/contentmatch/contentmatch.json").read_text(encoding="utf-8")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from openair.matching import PatternIndex, ascii_fold, matches, psyclone_matches
+from openair.protocol.matching import PatternIndex, ascii_fold, matches, psyclone_matches
 
 Key = tuple[str, int]
 

@@ -8,8 +8,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.stateful import Bundle, RuleBasedStateMachine, invariant, rule
 
-from openair.matching import PatternIndex, ascii_fold, matches
-from openair.types import is_valid_pattern, is_valid_type
+from openair.protocol.matching import PatternIndex, ascii_fold, matches
+from openair.protocol.types import is_valid_pattern, is_valid_type
 
 # --- an independent statement of OA-MATCH-1..6 as a regular expression --------------------------
 

@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from openair.errors import ErrorCode, PatternInvalidError, TypeInvalidError
-from openair.types import (
+from openair.protocol.errors import ErrorCode, PatternInvalidError, TypeInvalidError
+from openair.protocol.types import (
     MAX_TYPE_BYTES,
     MAX_TYPE_SEGMENTS,
     is_valid_pattern,

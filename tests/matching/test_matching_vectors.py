@@ -9,9 +9,9 @@ from typing import Any
 
 import pytest
 
-from openair.errors import PatternInvalidError, TypeInvalidError
-from openair.matching import PatternIndex, matches, psyclone_matches
-from openair.types import is_valid_pattern, is_valid_type, validate_pattern, validate_type
+from openair.protocol.errors import PatternInvalidError, TypeInvalidError
+from openair.protocol.matching import PatternIndex, matches, psyclone_matches
+from openair.protocol.types import is_valid_pattern, is_valid_type, validate_pattern, validate_type
 
 VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors" / "wildcards" / "wildcards.json"
 TABLE: dict[str, Any] = json.loads(VECTORS.read_text(encoding="utf-8"))

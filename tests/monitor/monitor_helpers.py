@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from openair.monitor import Monitor, MonitorOptions, attach
-from openair.server.app import Server, ServerOptions, start_server
+from openair.server.aio.app import Server, ServerOptions, start_server
 
 BOUND = 15.0  # seconds: the most any single wait may take
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "monitor"  # screenshots

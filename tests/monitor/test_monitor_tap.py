@@ -11,17 +11,17 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from openair.errors import PatternInvalidError
-from openair.matching import matches
-from openair.message import Message
 from openair.monitor import MonitorOptions
 from openair.monitor.messages import MessageFilter, detail, summary
 from openair.monitor.sse import Broadcaster
 from openair.monitor.tap import LATENCY_BOUNDS_US, Histogram, RateMeter, Tap
-from openair.server.queues import QueueItem
-from openair.server.router import Delivery
-from openair.times import AirTime
-from openair.wakeup import build_wakeup
+from openair.protocol.errors import PatternInvalidError
+from openair.protocol.matching import matches
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.protocol.wakeup import build_wakeup
+from openair.server.core.queues import QueueItem
+from openair.server.core.router import Delivery
 
 
 def stored(wbid: int, type_: str = "Test.A", sender: str = "P", content: str = "") -> Message:

@@ -13,10 +13,11 @@ from typing import Any
 import pytest
 from mutants_core import Fn, mutant, wrap
 
-from openair import registration
-from openair.message import Message
-from openair.server import delivery, retrieve, router, streams, whiteboard
-from openair.server.queues import QueueItem
+from openair.protocol import registration
+from openair.protocol.message import Message
+from openair.server.aio import delivery
+from openair.server.core import retrieve, router, streams, whiteboard
+from openair.server.core.queues import QueueItem
 
 
 @mutant(

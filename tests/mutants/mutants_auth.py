@@ -2,7 +2,8 @@
 
 They are not in the shared `CATALOGUE`: the cases that catch them run only against a server in
 secure mode, which test_mutants_auth.py starts. Seams are server-only names: `AuthGate` and the
-names openair.server.auth imports (the suite's client side computes proofs with openair.auth).
+names openair.server.core.auth imports (the suite's client side computes proofs with
+openair.protocol.auth).
 """
 
 from __future__ import annotations
@@ -12,9 +13,9 @@ from typing import Any
 import pytest
 from mutants_core import Fn, Mutant, Patch, wrap
 
-from openair.server import app
-from openair.server import auth as server_auth
-from openair.server.auth import AuthGate, Refusal
+from openair.server.aio import app
+from openair.server.core import auth as server_auth
+from openair.server.core.auth import AuthGate, Refusal
 
 AUTH_MUTANTS: dict[str, Mutant] = {}
 

@@ -18,16 +18,17 @@ from typing import Any
 import pytest
 from mutants_core import Fn, mutant, wrap
 
-import openair.contentmatch
-import openair.registration
-import openair.types
-from openair.content import TcpLocation
-from openair.contentmatch import _text, _wrapper
-from openair.errors import MessageInvalidError, TypeInvalidError
-from openair.matching import ascii_fold
-from openair.message import Message
-from openair.server import commands, delivery, router, sessions, whiteboard
-from openair.server.router import Outcome, Router
+import openair.protocol.contentmatch
+import openair.protocol.registration
+import openair.protocol.types
+from openair.protocol.content import TcpLocation
+from openair.protocol.contentmatch import _text, _wrapper
+from openair.protocol.errors import MessageInvalidError, TypeInvalidError
+from openair.protocol.matching import ascii_fold
+from openair.protocol.message import Message
+from openair.server.aio import delivery
+from openair.server.core import commands, router, sessions, whiteboard
+from openair.server.core.router import Outcome, Router
 
 # --- retrieve content (9.2) ----------------------------------------------------------------------
 
@@ -54,7 +55,7 @@ def _text_spaced(mp: pytest.MonkeyPatch) -> None:
         _text(_wrapper(content), out)
         return " ".join(out)
 
-    mp.setattr(openair.contentmatch, "text_content", spaced)
+    mp.setattr(openair.protocol.contentmatch, "text_content", spaced)
 
 
 # --- types and patterns (section 5) --------------------------------------------------------------
@@ -85,10 +86,11 @@ def _isprintable(mp: pytest.MonkeyPatch) -> None:
 )
 def _pattern_limit(mp: pytest.MonkeyPatch) -> None:
     def validate(pattern: str) -> str:
-        return openair.types.validate_pattern(pattern, max_bytes=254)
+        return openair.protocol.types.validate_pattern(pattern, max_bytes=254)
 
-    # openair.registration reads registrations; only the server does that in the suite's tests.
-    mp.setattr(openair.registration, "validate_pattern", validate)
+    # openair.protocol.registration reads registrations; only the server does that in the suite's
+    # tests.
+    mp.setattr(openair.protocol.registration, "validate_pattern", validate)
 
 
 @mutant(

@@ -1,6 +1,6 @@
 """Mutants of contexts and phases (spec 8.9, extension `contexts`), one deliberate fault each.
 
-Seams: `openair.server.contexts` (only the server imports it) and the router's methods and the
+Seams: `openair.server.core.contexts` (only the server imports it) and the router's methods and the
 names it imports. Each fault is the one-line slip of an implementer of OA-REG-13..18; the CTX
 cases catch them (CTX-001 in wakeups.py, CTX-002..005 in contexts.py).
 """
@@ -12,12 +12,12 @@ from typing import Any
 import pytest
 from mutants_core import Fn, mutant, wrap
 
-from openair.content import Phase, Registration
-from openair.message import Message
-from openair.server import contexts, router
-from openair.server.contexts import Contexts
-from openair.server.router import Delivery, Router
-from openair.server.whiteboard import Whiteboard
+from openair.protocol.content import Phase, Registration
+from openair.protocol.message import Message
+from openair.server.core import contexts, router
+from openair.server.core.contexts import Contexts
+from openair.server.core.router import Delivery, Router
+from openair.server.core.whiteboard import Whiteboard
 
 _CASES = ("CTX-*",)
 

@@ -2,10 +2,10 @@
 
 A mutant is a patch function over a `pytest.MonkeyPatch`; `Mutant.active()` applies it for the
 duration of a block. Seams are chosen where only the server uses them: server classes and the
-names server modules import, never `openair.codec`, `openair.framing` or `openair.message`,
-which the suite's own harness shares with the server in this process. A seam that disappears
-(renamed by a refactoring) makes `monkeypatch.setattr` raise, so the mutant errors instead of
-silently testing nothing.
+names server modules import, never `openair.protocol.codec`, `openair.protocol.framing` or
+`openair.protocol.message`, which the suite's own harness shares with the server in this process. A
+seam that disappears (renamed by a refactoring) makes `monkeypatch.setattr` raise, so the mutant
+errors instead of silently testing nothing.
 
 The preferred seam is the router's public surface: `Router.handle` / `connection_closed` return
 an `Outcome` whose deliveries carry the wakeup messages; `outcome_patch` rewrites them there
@@ -22,9 +22,9 @@ from typing import Any
 import pytest
 from lxml import etree
 
-from openair.message import Message
-from openair.server.router import Delivery, Outcome, Router
-from openair.xmlsafe import local_name
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import local_name
+from openair.server.core.router import Delivery, Outcome, Router
 
 __all__ = [
     "CATALOGUE",
@@ -114,7 +114,7 @@ def wrap_select(mp: pytest.MonkeyPatch, make: Callable[[Fn], Fn]) -> None:
     possibly off the loop: issue #19) both go through it, so a retrieve mutant patches it once
     for both paths.
     """
-    from openair.server import retrieve, whiteboard
+    from openair.server.core import retrieve, whiteboard
 
     mutated = make(whiteboard.select)
     mp.setattr(whiteboard, "select", mutated)

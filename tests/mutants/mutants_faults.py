@@ -13,9 +13,9 @@ from typing import Any
 import pytest
 from mutants_core import Fn, mutant, wrap
 
-from openair.message import Message
-from openair.server import whiteboard
-from openair.server.whiteboard import Whiteboard
+from openair.protocol.message import Message
+from openair.server.core import whiteboard
+from openair.server.core.whiteboard import Whiteboard
 
 _NS_PER_S = 1_000_000_000
 

@@ -1,9 +1,9 @@
 """Mutants of reading input (spec sections 2, 3, 4 and 13): frames and message validity.
 
-Frame mutants replace the `FrameReader` and `encode_frame` that `openair.server.protocol`
+Frame mutants replace the `FrameReader` and `encode_frame` that `openair.server.aio.protocol`
 imports (the harness reads frames with its own reference to the real ones) or wrap
 `ServerConnection`. Validity mutants make the server's decoder lenient: when
-`openair.server.protocol.from_frame` refuses a message MESSAGE_INVALID, a `fix` edits the XML
+`openair.server.aio.protocol.from_frame` refuses a message MESSAGE_INVALID, a `fix` edits the XML
 and the message is decoded again, so a message the spec refuses is accepted.
 """
 
@@ -16,11 +16,11 @@ import pytest
 from lxml import etree
 from mutants_core import Fn, child, mutant, wrap
 
-from openair.errors import MessageInvalidError, RemoteProtocolError
-from openair.framing import Frame, FrameReader, FrameTag
-from openair.message import Message
-from openair.server import delivery, protocol
-from openair.xmlsafe import local_name, parse_xml
+from openair.protocol.errors import MessageInvalidError, RemoteProtocolError
+from openair.protocol.framing import Frame, FrameReader, FrameTag
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import local_name, parse_xml
+from openair.server.aio import delivery, protocol
 
 # --- frames (2.1, 2.2) ---------------------------------------------------------------------------
 

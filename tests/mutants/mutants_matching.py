@@ -2,8 +2,9 @@
 
 `spec_match` with no fault is OA-MATCH-1..6 (test_mutants.py checks it against the wildcard
 vectors); each `Fault` switch breaks one rule. A mutant puts the faulty matcher into both places
-the server matches: the router's trigger index (`openair.server.router.PatternIndex`, replaced
-by a scanning index) and the whiteboard's retrieve criteria (`openair.server.whiteboard.matches`).
+the server matches: the router's trigger index (`openair.server.core.router.PatternIndex`, replaced
+by a scanning index) and the whiteboard's retrieve criteria
+(`openair.server.core.whiteboard.matches`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from typing import Any
 import pytest
 from mutants_core import mutant
 
-from openair.server import router, whiteboard
+from openair.server.core import router, whiteboard
 
 __all__ = ["NO_FAULT", "Fault", "compile_pattern", "spec_match"]
 

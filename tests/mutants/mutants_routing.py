@@ -27,15 +27,15 @@ from mutants_core import (
 )
 from mutants_matching import spec_match
 
-import openair.registration
-from openair.content import Phase, Registration, RegistrationForm
-from openair.errors import MessageInvalidError
-from openair.message import Message, new_id
-from openair.server import commands, router
-from openair.server.contexts import Contexts
-from openair.server.router import Delivery, Outcome, Router
-from openair.server.whiteboard import Whiteboard
-from openair.xmlsafe import local_name
+import openair.protocol.registration
+from openair.protocol.content import Phase, Registration, RegistrationForm
+from openair.protocol.errors import MessageInvalidError
+from openair.protocol.message import Message, new_id
+from openair.protocol.xmlsafe import local_name
+from openair.server.core import commands, router
+from openair.server.core.contexts import Contexts
+from openair.server.core.router import Delivery, Outcome, Router
+from openair.server.core.whiteboard import Whiteboard
 
 
 def _text(el: etree._Element | None) -> str:
@@ -257,8 +257,8 @@ def _refused_clears(mp: pytest.MonkeyPatch) -> None:
 
 @mutant("invalid-pattern-accepted", "registrations with bad patterns are accepted", "OA-MATCH-7")
 def _invalid_pattern(mp: pytest.MonkeyPatch) -> None:
-    mp.setattr(openair.registration, "validate_pattern", lambda *args, **kwargs: None)
-    mp.setattr(openair.registration, "is_valid_pattern", lambda *args, **kwargs: True)
+    mp.setattr(openair.protocol.registration, "validate_pattern", lambda *args, **kwargs: None)
+    mp.setattr(openair.protocol.registration, "is_valid_pattern", lambda *args, **kwargs: True)
 
 
 @mutant("max-triggers-off-by-one", "max-triggers triggers are refused", "OA-LIM-6")

@@ -17,13 +17,13 @@ from typing import Any
 import pytest
 from mutants_core import Fn, mutant, wrap, wrap_select
 
-from openair.content import RetrieveSpec
-from openair.message import Message
-from openair.server import commands, whiteboard
-from openair.server.delivery import Dispatcher
-from openair.server.queues import QueueItem
-from openair.server.router import Outcome, Router
-from openair.server.whiteboard import Whiteboard
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.message import Message
+from openair.server.aio.delivery import Dispatcher
+from openair.server.core import commands, whiteboard
+from openair.server.core.queues import QueueItem
+from openair.server.core.router import Outcome, Router
+from openair.server.core.whiteboard import Whiteboard
 
 # --- retries of a failed delivery (6.6) ---
 

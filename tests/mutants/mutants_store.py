@@ -2,7 +2,7 @@
 
 Stored-copy mutants change the slots `Whiteboard.store_post` sets (through `derive` as the
 whiteboard module imports it); retrieve mutants wrap the history scan `select` (both retrieve
-paths), the content glob, the request reader `openair.server.retrieve.parse_request` and
+paths), the content glob, the request reader `openair.server.core.retrieve.parse_request` and
 `prepare_retrieve` as the router imports it.
 """
 
@@ -16,15 +16,15 @@ import pytest
 from lxml import etree
 from mutants_core import Fn, defer, mutant, wrap, wrap_select
 
-import openair.objects
-from openair.content import ContentMatch, RetrieveSpec
-from openair.errors import RetrieveInvalidError
-from openair.message import Message
-from openair.objects import parse_content
-from openair.server import commands, retrieve, router, whiteboard
-from openair.server.router import Outcome, Router
-from openair.server.whiteboard import Whiteboard
-from openair.xmlsafe import local_name
+import openair.protocol.objects
+from openair.protocol.content import ContentMatch, RetrieveSpec
+from openair.protocol.errors import RetrieveInvalidError
+from openair.protocol.message import Message
+from openair.protocol.objects import parse_content
+from openair.protocol.xmlsafe import local_name
+from openair.server.core import commands, retrieve, router, whiteboard
+from openair.server.core.router import Outcome, Router
+from openair.server.core.whiteboard import Whiteboard
 
 # --- acknowledging and storing a post (7.3, 7.4) -------------------------------------------------
 
@@ -330,8 +330,8 @@ def _type_bytes(mp: pytest.MonkeyPatch) -> None:
 
 @mutant("retrieve-bad-pattern-accepted", "retrieves with invalid patterns are served", "OA-MATCH-7")
 def _retrieve_bad_pattern(mp: pytest.MonkeyPatch) -> None:
-    mp.setattr(openair.objects, "validate_pattern", lambda *args, **kwargs: None)
-    mp.setattr(openair.objects, "is_valid_pattern", lambda *args, **kwargs: True)
+    mp.setattr(openair.protocol.objects, "validate_pattern", lambda *args, **kwargs: None)
+    mp.setattr(openair.protocol.objects, "is_valid_pattern", lambda *args, **kwargs: True)
 
 
 @mutant(

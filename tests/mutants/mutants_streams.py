@@ -2,7 +2,7 @@
 the typed-streams limits, locks and alarms.
 
 Ring, id, lookup, lock and alarm mutants wrap methods of the sans-I/O `Stream`
-(`openair.server.streams`); wait and BinaryM mutants wrap `StreamService`; the push mutant
+(`openair.server.core.streams`); wait and BinaryM mutants wrap `StreamService`; the push mutant
 replaces `push_message` where the pusher and the module delivery import it. The suite's own
 chunk reader (`cases/_streams.py`) shares none of these.
 """
@@ -15,11 +15,12 @@ from typing import Any
 import pytest
 from mutants_core import Fn, mutant, wrap
 
-from openair.datasample import chunk_parts
-from openair.message import Message
-from openair.server import delivery, pusher, streamservice
-from openair.server.streams import AddResult, Alarm, SampleBuffer, StoredSample, Stream
-from openair.server.streamservice import StreamService
+from openair.protocol.datasample import chunk_parts
+from openair.protocol.message import Message
+from openair.server.aio import delivery, pusher
+from openair.server.core import streamservice
+from openair.server.core.streams import AddResult, Alarm, SampleBuffer, StoredSample, Stream
+from openair.server.core.streamservice import StreamService
 
 # --- the ring and its ids (11.1) -----------------------------------------------------------------
 

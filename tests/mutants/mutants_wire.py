@@ -1,8 +1,8 @@
 """Mutants of sessions, delivery and the wire (spec sections 2, 6, 10, 13-15).
 
-Reply mutants patch the reply builders of `openair.server.commands` (the router calls them as
+Reply mutants patch the reply builders of `openair.server.core.commands` (the router calls them as
 `cmd.<name>`); session mutants wrap `Sessions`; connection mutants wrap `ServerConnection` and
-the codec functions as `openair.server.protocol` imports them (the harness keeps its own).
+the codec functions as `openair.server.aio.protocol` imports them (the harness keeps its own).
 """
 
 from __future__ import annotations
@@ -17,15 +17,16 @@ from typing import Any
 import pytest
 from mutants_core import WAKEUP, Fn, mutant, outcome_patch, with_message, wrap
 
-from openair.codec import from_frame
-from openair.errors import RemoteProtocolError
-from openair.framing import Frame, FrameTag
-from openair.message import Message
-from openair.server import commands, delivery, protocol, retrieve, sessions
-from openair.server.config import ServerLimits
-from openair.server.queues import DeliveryQueue
-from openair.server.router import Outcome, Router
-from openair.xmlsafe import XmlLimits
+from openair.protocol.codec import from_frame
+from openair.protocol.errors import RemoteProtocolError
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import XmlLimits
+from openair.server.aio import delivery, protocol
+from openair.server.core import commands, retrieve, sessions
+from openair.server.core.config import ServerLimits
+from openair.server.core.queues import DeliveryQueue
+from openair.server.core.router import Outcome, Router
 
 # --- delivery order (sections 6.6, 10) -----------------------------------------------------------
 

@@ -34,8 +34,8 @@ from openair_conformance.engine import RunOptions, run
 from openair_conformance.model import CaseResult, Level, Verdict
 from openair_conformance.registry import RegisteredCase, all_cases, select_cases
 
-app = pytest.importorskip("openair.server.app")
-config = pytest.importorskip("openair.server.config")
+app = pytest.importorskip("openair.server.aio.app")
+config = pytest.importorskip("openair.server.core.config")
 
 #: Small deadlines: a mutant that loses a reply or a wakeup costs 4 deadlines per case.
 TIMEOUT_SCALE = 0.5

@@ -14,7 +14,7 @@ from mutants_auth import AUTH_MUTANTS
 from server_thread import ServerThread
 
 from openair.catalogue import load_catalogue
-from openair.server import app
+from openair.server.aio import app
 from openair_conformance.engine import RunOptions, run
 from openair_conformance.model import Verdict
 from openair_conformance.registry import all_cases

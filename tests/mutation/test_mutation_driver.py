@@ -34,7 +34,7 @@ from tools.mutation.selection import (
 from tools.mutation.snapshot import copy_tree, tracked_files
 
 ROOT = Path(__file__).resolve().parents[2]
-WHITEBOARD = "reference/openair/server/whiteboard.py"
+WHITEBOARD = "reference/openair/server/core/whiteboard.py"
 
 SOURCE = """\
 LIMIT = 3
@@ -214,7 +214,7 @@ def test_committed_explanations_are_well_formed_and_modules_resolve() -> None:
         assert module in every and rest and len(rest.split(":")) in (1, 2, 3), key
     assert resolve_modules(["whiteboard", "queues"]) == [
         WHITEBOARD,
-        "reference/openair/server/queues.py",
+        "reference/openair/server/core/queues.py",
     ]
     assert len(resolve_modules([])) == sum(len(p) for p in MODULE_GROUPS.values())
     with pytest.raises(ValueError):

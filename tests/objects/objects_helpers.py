@@ -7,7 +7,7 @@ from pathlib import Path
 
 from lxml import etree
 
-from openair.xmlsafe import parse_fragment, parse_xml
+from openair.protocol.xmlsafe import parse_fragment, parse_xml
 
 ROOT = Path(__file__).resolve().parents[2]
 SCHEMA_DIR = ROOT / "schemas"

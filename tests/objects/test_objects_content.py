@@ -15,15 +15,15 @@ from objects_helpers import (
     schema_errors,
 )
 
-from openair.content import Dictionary, TcpLocation
-from openair.errors import (
+from openair.protocol.content import Dictionary, TcpLocation
+from openair.protocol.errors import (
     ApiMisuseError,
     ContentInvalidError,
     XmlForbiddenError,
     XmlTooDeepError,
 )
-from openair.message import Message
-from openair.objects import (
+from openair.protocol.message import Message
+from openair.protocol.objects import (
     Capabilities,
     encode_capabilities,
     encode_dictionary,
@@ -36,7 +36,7 @@ from openair.objects import (
     parse_tcplocation,
     parse_time,
 )
-from openair.times import AirTime
+from openair.protocol.times import AirTime
 
 # Text that XML 1.0 can carry in attributes and elements (no controls, surrogates, U+FFFE/F).
 XML_TEXT = st.text(

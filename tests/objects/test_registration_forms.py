@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from objects_helpers import doc_content, doc_paths
 
-from openair.content import (
+from openair.protocol.content import (
     ANY_WHITEBOARD,
     DEFAULT_CONTEXT,
     Phase,
@@ -17,14 +17,14 @@ from openair.content import (
     StreamRef,
     Trigger,
 )
-from openair.errors import (
+from openair.protocol.errors import (
     LimitExceededError,
     PatternInvalidError,
     RegistrationInvalidError,
     XmlForbiddenError,
 )
-from openair.registration import parse_registration, parse_registration_element
-from openair.xmlsafe import parse_fragment
+from openair.protocol.registration import parse_registration, parse_registration_element
+from openair.protocol.xmlsafe import parse_fragment
 
 TR_DATA = RetrieveSpec(whiteboard="WB1", pattern="TR.Data.*", latest=2)
 

@@ -7,21 +7,21 @@ from pathlib import Path
 import pytest
 from objects_helpers import content_schema, doc_content, doc_paths, schema_errors
 
-from openair.content import ContentMatch, RetrieveSpec
-from openair.errors import (
+from openair.protocol.content import ContentMatch, RetrieveSpec
+from openair.protocol.errors import (
     ApiMisuseError,
     PatternInvalidError,
     RetrieveInvalidError,
     XmlForbiddenError,
 )
-from openair.registration import (
+from openair.protocol.registration import (
     encode_retrieve,
     encode_retrieves,
     parse_retrieve_element,
     parse_retrieves,
 )
-from openair.times import AirTime
-from openair.xmlsafe import parse_fragment
+from openair.protocol.times import AirTime
+from openair.protocol.xmlsafe import parse_fragment
 
 
 def one(content: str) -> RetrieveSpec:

@@ -7,7 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from objects_helpers import content_schema, registration_errors, schema_errors
 
-from openair.content import (
+from openair.protocol.content import (
     ANY_WHITEBOARD,
     DEFAULT_CONTEXT,
     ContentMatch,
@@ -18,8 +18,8 @@ from openair.content import (
     StreamRef,
     Trigger,
 )
-from openair.errors import ApiMisuseError
-from openair.registration import (
+from openair.protocol.errors import ApiMisuseError
+from openair.protocol.registration import (
     encode_phase,
     encode_registration,
     encode_retrieve,
@@ -28,8 +28,8 @@ from openair.registration import (
     parse_retrieves,
     read_phase,
 )
-from openair.times import AirTime
-from openair.xmlsafe import parse_fragment
+from openair.protocol.times import AirTime
+from openair.protocol.xmlsafe import parse_fragment
 
 XML_TEXT = st.text(
     st.characters(

@@ -15,13 +15,13 @@ from wakeup_frames import (
     PSYCLONE_TRIGGER_WAKEUP,
 )
 
-from openair.codec import decode_message, encode_message
-from openair.content import Phase, RetrieveSpec, Trigger
-from openair.errors import ContentInvalidError
-from openair.message import Message
-from openair.times import AirTime
-from openair.wakeup import WAKEUP_TYPE, Wakeup, build_wakeup, parse_wakeup
-from openair.xmlsafe import local_name, parse_fragment
+from openair.protocol.codec import decode_message, encode_message
+from openair.protocol.content import Phase, RetrieveSpec, Trigger
+from openair.protocol.errors import ContentInvalidError
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.protocol.wakeup import WAKEUP_TYPE, Wakeup, build_wakeup, parse_wakeup
+from openair.protocol.xmlsafe import local_name, parse_fragment
 
 STORED = Message(
     type="Test.Ping.A",

@@ -19,7 +19,7 @@ from openair.ontology.history import read_xml
 from openair.ontology.parse import read_ontology
 from openair.ontology.site import build_context, write_site
 from openair.ontology.usage import merge, usage_from_config, usage_from_history
-from openair.server.config import load_config
+from openair.server.core.config import load_config
 
 SENTENCE = "Input.Perc.UniM.Hear.Voice.Speak.Sentence"
 BOUND = 5.0  # seconds any DOM condition may take to hold

@@ -19,7 +19,7 @@ from openair.client.blocking import BlockingModule
 from openair.ontology.history import HistoryError, load_history, read_sqlite
 from openair.ontology.model import Kind, TypeIndex
 from openair.ontology.parse import read_ontology
-from openair.server.config import load_config
+from openair.server.core.config import load_config
 
 SENTENCE = "Input.Perc.UniM.Hear.Voice.Speak.Sentence"
 MOUSE = "Skundar.Input.Sens.MouseMotion"

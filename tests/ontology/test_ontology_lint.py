@@ -14,7 +14,7 @@ from openair.ontology.model import TypeIndex
 from openair.ontology.parse import read_ontology
 from openair.ontology.relations import deviation
 from openair.ontology.usage import merge, usage_from_config
-from openair.server.config import load_config
+from openair.server.core.config import load_config
 
 PROBLEMS = FIXTURES / "problems.psySpec.xml"
 

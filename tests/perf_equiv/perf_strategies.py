@@ -11,9 +11,9 @@ from __future__ import annotations
 from hypothesis import strategies as st
 from lxml import etree
 
-from openair.errors import ApiMisuseError
-from openair.message import Message, Reference, Slot
-from openair.times import AirTime
+from openair.protocol.errors import ApiMisuseError
+from openair.protocol.message import Message, Reference, Slot
+from openair.protocol.times import AirTime
 
 # XML-special characters are frequent; a few characters XML 1.0 forbids are included on purpose.
 hostile_chars = st.one_of(

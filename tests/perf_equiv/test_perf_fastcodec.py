@@ -8,12 +8,17 @@ from hypothesis import strategies as st
 from lxml import etree
 from perf_strategies import documents, messages
 
-from openair._errors_base import OpenAIRError
-from openair.codec import decode_message, decode_with_lxml, encode_message, encode_with_lxml
-from openair.errors import ApiMisuseError
-from openair.fastcodec import escape_attr, escape_text, fast_decode, fast_encode
-from openair.message import Message
-from openair.xmlsafe import XmlLimits
+from openair.protocol._errors_base import OpenAIRError
+from openair.protocol.codec import (
+    decode_message,
+    decode_with_lxml,
+    encode_message,
+    encode_with_lxml,
+)
+from openair.protocol.errors import ApiMisuseError
+from openair.protocol.fastcodec import escape_attr, escape_text, fast_decode, fast_encode
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import XmlLimits
 
 _MANY = settings(max_examples=400)
 

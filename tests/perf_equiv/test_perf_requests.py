@@ -5,13 +5,13 @@ from __future__ import annotations
 import asyncio
 from typing import Any
 
-from openair.codec import from_frame, to_frame
-from openair.errors import ConnectionClosedError
-from openair.framing import FrameReader, FrameTag, encode_frame
-from openair.message import Message
-from openair.server.config import ServerLimits
-from openair.server.protocol import FlowLimits, Role, ServerConnection
-from openair.server.router import Outcome
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.errors import ConnectionClosedError
+from openair.protocol.framing import FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.server.aio.protocol import FlowLimits, Role, ServerConnection
+from openair.server.core.config import ServerLimits
+from openair.server.core.router import Outcome
 
 
 class _Transport(asyncio.Transport):

@@ -6,13 +6,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from perf_strategies import messages, safe_text
 
-from openair.codec import encode_with_lxml
-from openair.content import Phase, RetrieveSpec, Trigger
-from openair.errors import ApiMisuseError
-from openair.message import Message
-from openair.server.whiteboard import derive
-from openair.times import AirTime
-from openair.wakeup import (
+from openair.protocol.codec import encode_with_lxml
+from openair.protocol.content import Phase, RetrieveSpec, Trigger
+from openair.protocol.errors import ApiMisuseError
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.protocol.wakeup import (
     EncodedCopies,
     assemble_wakeup,
     build_wakeup,
@@ -20,6 +19,7 @@ from openair.wakeup import (
     frame_bytes,
     phase_spec_xml,
 )
+from openair.server.core.whiteboard import derive
 
 _patterns = st.sampled_from(["A.*", "Bench.Flow.*", "*", "x.y", "a<b&c"])
 _triggers = st.builds(

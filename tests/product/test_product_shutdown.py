@@ -20,11 +20,11 @@ from product_support import STOP_S, ServeProcess, openair_command
 
 from openair.client import Module
 from openair.client.module import FailedReplyError
-from openair.errors import ShuttingDownError
-from openair.message import Message
-from openair.server.delivery import Dispatcher
-from openair.server.protocol import ServerConnection
-from openair.server.router import Delivery, ModuleInfo
+from openair.protocol.errors import ShuttingDownError
+from openair.protocol.message import Message
+from openair.server.aio.delivery import Dispatcher
+from openair.server.aio.protocol import ServerConnection
+from openair.server.core.router import Delivery, ModuleInfo
 from openair_conformance.engine import RunOptions, exit_code, run
 
 _FAR_NS = 3600 * 10**9  # a due time an hour ahead: the task waits with a timeout

@@ -136,13 +136,13 @@ def test_the_wheel_builds_without_a_compiler(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     (wheel,) = tmp_path.glob("openair_kit-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
-    assert "openair/server/datapath/pure.py" in names
+    assert "openair/server/aio/datapath/pure.py" in names
     assert not [n for n in names if "_native" in n and not n.endswith(".c")], names
     venv = tmp_path / "venv"
     _check([sys.executable, "-m", "venv", str(venv)])
     python = venv / "bin" / "python"
     _check([str(python), "-m", "pip", "install", "-q", str(wheel)])
-    probe = "from openair.server.datapath import select; print(select({}).name)"
+    probe = "from openair.server.aio.datapath import select; print(select({}).name)"
     done = subprocess.run([str(python), "-c", probe], capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "python"
@@ -150,7 +150,7 @@ def test_the_wheel_builds_without_a_compiler(tmp_path: Path) -> None:
 
 def test_the_wheel_holds_the_native_data_path(clean_python: Path) -> None:
     """With a compiler (this machine has one), the installed wheel picks the native path."""
-    probe = "from openair.server.datapath import select; print(select({}).name)"
+    probe = "from openair.server.aio.datapath import select; print(select({}).name)"
     done = subprocess.run(
         [str(clean_python), "-c", probe], capture_output=True, text=True, check=False
     )

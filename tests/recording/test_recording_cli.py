@@ -16,12 +16,12 @@ from server_thread import ReferenceServer
 
 from openair.cli import main
 from openair.client import BlockingModule
-from openair.content import RetrieveSpec
-from openair.message import Message
 from openair.monitor.http import HttpError, Request
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 from openair.recording import Header, RecordingReader, RecordingWriter, read_index
 from openair.recording.monitor import RecordingMonitor
-from openair.times import AirTime
 
 OPENAIR = [sys.executable, "-m", "openair.cli"]
 

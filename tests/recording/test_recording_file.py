@@ -11,8 +11,8 @@ import pytest
 from click.testing import CliRunner
 
 from openair.cli import main
-from openair.datasample import DataSample
-from openair.errors import (
+from openair.protocol.datasample import DataSample
+from openair.protocol.errors import (
     BinarySizesInvalidError,
     FrameTooLargeError,
     FrameTruncatedError,
@@ -21,7 +21,8 @@ from openair.errors import (
     OpenAIRError,
     XmlForbiddenError,
 )
-from openair.message import Message
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 from openair.recording import (
     Header,
     MessageRecord,
@@ -33,7 +34,6 @@ from openair.recording import (
     read_index,
 )
 from openair.recording.fileformat import MAGIC
-from openair.times import AirTime
 
 BASE_MS = 1_800_000_000_000
 HEADER = Header(server="127.0.0.1:1", started_ns=BASE_MS * 1_000_000, whiteboards=("WB1",))

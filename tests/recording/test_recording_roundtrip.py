@@ -9,8 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from openair.client import Module
-from openair.content import RetrieveSpec
-from openair.message import Message
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 from openair.recording import (
     Header,
     MessageRecord,
@@ -24,9 +25,8 @@ from openair.recording import (
     read_index,
 )
 from openair.recording.replay import ORIGINAL_POSTED_SLOT, ORIGINAL_TIMESTAMP_PARAM
-from openair.server.app import DEFAULT_EXTENSIONS, ServerOptions, start_server
-from openair.server.config import parse_config
-from openair.times import AirTime
+from openair.server.aio.app import DEFAULT_EXTENSIONS, ServerOptions, start_server
+from openair.server.core.config import parse_config
 
 TIMEOUT = 30.0
 NO_STREAMS = b"""<psySpec name="Target" version="1.2">

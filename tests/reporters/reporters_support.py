@@ -18,7 +18,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "conformance"))
 
 from test_engine_support import FakeServer, Recorder, ServerThread
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.engine import RunOptions, run
 from openair_conformance.harness import CaseContext
 from openair_conformance.model import (

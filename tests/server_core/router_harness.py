@@ -5,12 +5,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from openair.framing import FrameTag
-from openair.message import Message
-from openair.server.config import ServerConfig, ServerLimits, default_config
-from openair.server.router import Outcome, Router
-from openair.server.store import HistoryStore, MemoryStore
-from openair.wakeup import Wakeup, parse_wakeup
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
+from openair.protocol.wakeup import Wakeup, parse_wakeup
+from openair.server.core.config import ServerConfig, ServerLimits, default_config
+from openair.server.core.router import Outcome, Router
+from openair.server.core.store import HistoryStore, MemoryStore
 
 T0 = 1_795_328_337_000_000_000
 MS = 1_000_000

@@ -5,13 +5,13 @@ from __future__ import annotations
 import pytest
 from router_harness import EXTENSIONS, Harness
 
-from openair.auth import proof
-from openair.framing import FrameTag
-from openair.message import Message
-from openair.server.auth import AuthGate
-from openair.server.config import ServerLimits, default_config
-from openair.server.router import Outcome, Router
-from openair.server.store import MemoryStore
+from openair.protocol.auth import proof
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
+from openair.server.core.auth import AuthGate
+from openair.server.core.config import ServerLimits, default_config
+from openair.server.core.router import Outcome, Router
+from openair.server.core.store import MemoryStore
 
 SECRETS = {"Alice": "alice-secret-0123456789", "Bob": "bob-secret-0123456789ab"}
 NONCE = bytes(range(32))

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from openair.content import DEFAULT_CONTEXT, RegistrationForm
-from openair.server.config import (
+from openair.protocol.content import DEFAULT_CONTEXT, RegistrationForm
+from openair.server.core.config import (
     AIRCENTRAL,
     ConfigError,
     ServerLimits,

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from router_harness import EXTENSIONS, Harness, wakeups
 
-from openair.content import Phase, Registration, RegistrationForm
-from openair.server.contexts import Contexts, context_of
-from openair.wakeup import parse_wakeup
+from openair.protocol.content import Phase, Registration, RegistrationForm
+from openair.protocol.wakeup import parse_wakeup
+from openair.server.core.contexts import Contexts, context_of
 
 CTX = EXTENSIONS | {"contexts"}
 

@@ -14,13 +14,13 @@ from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, rule
 from router_harness import MS, Harness
 
-from openair.framing import FrameTag
-from openair.matching import matches
-from openair.message import Message
-from openair.objects import parse_message_collection
-from openair.server.config import parse_config
-from openair.server.router import Outcome
-from openair.wakeup import parse_wakeup
+from openair.protocol.framing import FrameTag
+from openair.protocol.matching import matches
+from openair.protocol.message import Message
+from openair.protocol.objects import parse_message_collection
+from openair.protocol.wakeup import parse_wakeup
+from openair.server.core.config import parse_config
+from openair.server.core.router import Outcome
 
 SPEC = (
     b'<psySpec name="Model" version="1.2"><whiteboard name="AIRCentral" maxcount="6"/>'

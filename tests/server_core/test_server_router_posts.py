@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 from router_harness import MS, Harness, wakeups
 
-from openair.message import Message
-from openair.objects import parse_message_collection
-from openair.server.config import ServerLimits, parse_config
-from openair.server.store import MemoryStore
+from openair.protocol.message import Message
+from openair.protocol.objects import parse_message_collection
+from openair.server.core.config import ServerLimits, parse_config
+from openair.server.core.store import MemoryStore
 
 SUB_PING = '<triggers><trigger from="WB1" type="Test.Ping.*"/></triggers>'
 

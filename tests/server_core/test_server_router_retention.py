@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from router_harness import Harness
 
-from openair.message import Message
+from openair.protocol.message import Message
 
 
 def test_the_counters_of_a_module_gone_past_the_retention_are_forgotten() -> None:

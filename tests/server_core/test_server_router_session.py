@@ -7,12 +7,17 @@ from typing import Any
 import pytest
 from router_harness import T0, Harness, wakeups
 
-from openair.content import RetrieveSpec
-from openair.framing import FrameTag
-from openair.message import Message, Slot
-from openair.objects import parse_capabilities, parse_dictionary, parse_tcplocation, parse_time
-from openair.server.config import ServerLimits, parse_config
-from openair.wakeup import parse_wakeup
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message, Slot
+from openair.protocol.objects import (
+    parse_capabilities,
+    parse_dictionary,
+    parse_tcplocation,
+    parse_time,
+)
+from openair.protocol.wakeup import parse_wakeup
+from openair.server.core.config import ServerLimits, parse_config
 
 LOST_WATCH = '<triggers><trigger from="AIRCentral" type="Psyclone.Module.*"/></triggers>'
 

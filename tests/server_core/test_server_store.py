@@ -8,16 +8,11 @@ from typing import Any
 
 import pytest
 
-from openair.message import Message, Slot
-from openair.server.store import (
-    HistoryStore,
-    MemoryStore,
-    SqliteStore,
-    StoreSpecError,
-    open_store,
-)
-from openair.server.whiteboard import Whiteboard
-from openair.times import AirTime
+from openair.protocol.message import Message, Slot
+from openair.protocol.times import AirTime
+from openair.server.aio.stores import SqliteStore, open_store
+from openair.server.core.store import HistoryStore, MemoryStore, StoreSpecError
+from openair.server.core.whiteboard import Whiteboard
 
 
 def _copy(wbid: int, *, board: str = "WB1", **fields: Any) -> Message:
@@ -162,7 +157,7 @@ def test_whiteboard_refuses_when_the_store_fails() -> None:
         def append(self, whiteboard: str, msg: Message) -> None:
             raise OSError("disk full")
 
-    from openair.errors import StoreFailedError
+    from openair.protocol.errors import StoreFailedError
 
     board = Whiteboard("WB1", store=Failing())
     with pytest.raises(StoreFailedError, match="disk full"):

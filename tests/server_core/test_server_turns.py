@@ -13,9 +13,9 @@ import asyncio
 import pytest
 from router_harness import Harness
 
-from openair.server.config import parse_config
-from openair.server.router import Delivery
-from openair.server.scheduling import TurnGate, TurnOrder
+from openair.server.aio.scheduling import TurnGate, TurnOrder
+from openair.server.core.config import parse_config
+from openair.server.core.router import Delivery
 
 SPEC = b"""<psySpec name="Turns" version="1.2">
   <whiteboard name="Low" priority="4.0"/>

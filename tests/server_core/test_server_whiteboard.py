@@ -6,11 +6,11 @@ from typing import Any
 
 import pytest
 
-from openair.content import ContentMatch, RetrieveSpec
-from openair.message import Message
-from openair.server.store import MemoryStore
-from openair.server.whiteboard import Whiteboard, content_glob, text_of
-from openair.times import AirTime
+from openair.protocol.content import ContentMatch, RetrieveSpec
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.server.core.store import MemoryStore
+from openair.server.core.whiteboard import Whiteboard, content_glob, text_of
 
 SEC = 1_000_000_000
 MS = 1_000_000

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import threading
 
-from openair.message import Message
-from openair.server.internal import InternalModule
-from openair.wakeup import parse_wakeup
+from openair.protocol.message import Message
+from openair.protocol.wakeup import parse_wakeup
+from openair.server.aio.internal import InternalModule
 
 #: Set by the test to let `blocker` return; `blocked` is set once it is waiting.
 RELEASE = threading.Event()

@@ -11,10 +11,10 @@ import contextlib
 from collections.abc import Awaitable, Callable, Coroutine
 from typing import Any
 
-from openair.codec import from_frame, to_frame
-from openair.framing import FrameReader, FrameTag, encode_frame
-from openair.message import Message
-from openair.server.app import Server, ServerOptions, start_server
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.framing import FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.server.aio.app import Server, ServerOptions, start_server
 
 BOUND = 20.0  # seconds: the most any single wait in these tests may take
 

@@ -8,9 +8,9 @@ import asyncio
 import internal_handlers  # noqa: F401 (named in the psySpec)
 
 from openair.client import Module
-from openair.content import Trigger
-from openair.server.app import ServerOptions, start_server
-from openair.server.config import parse_config
+from openair.protocol.content import Trigger
+from openair.server.aio.app import ServerOptions, start_server
+from openair.server.core.config import parse_config
 
 SECRETS = {"Alice": "alice-secret-0123456789"}
 SPEC = b"""<psySpec name="SecureInternal" version="1.2">

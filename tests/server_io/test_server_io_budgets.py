@@ -17,21 +17,21 @@ import pytest
 from server_io_helpers import BOUND, Raw, TestModule, run, serving
 from test_server_io_flow import FakeTransport
 
-from openair.codec import to_frame
-from openair.content import RetrieveSpec
-from openair.framing import encode_frame
-from openair.message import Message
-from openair.objects import parse_dictionary
-from openair.server import protocol as protocol_module
-from openair.server.app import ServerOptions
-from openair.server.config import ServerLimits
-from openair.server.delivery import DeliveryOptions
-from openair.server.protocol import FlowLimits, Role, ServerConnection
-from openair.server.queues import DeliveryQueue
-from openair.server.retrieve import registration_results
-from openair.server.router import Outcome
-from openair.server.store import MemoryStore
-from openair.server.whiteboard import Whiteboard
+from openair.protocol.codec import to_frame
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.framing import encode_frame
+from openair.protocol.message import Message
+from openair.protocol.objects import parse_dictionary
+from openair.server.aio import protocol as protocol_module
+from openair.server.aio.app import ServerOptions
+from openair.server.aio.delivery import DeliveryOptions
+from openair.server.aio.protocol import FlowLimits, Role, ServerConnection
+from openair.server.core.config import ServerLimits
+from openair.server.core.queues import DeliveryQueue
+from openair.server.core.retrieve import registration_results
+from openair.server.core.router import Outcome
+from openair.server.core.store import MemoryStore
+from openair.server.core.whiteboard import Whiteboard
 
 KIB = 1024
 

@@ -10,10 +10,10 @@ from pathlib import Path
 
 from click.testing import CliRunner
 
-from openair.codec import from_frame, to_frame
-from openair.datasample import DataSample, encode_chunk
-from openair.framing import FrameReader, FrameTag, encode_frame
-from openair.message import Message
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.datasample import DataSample, encode_chunk
+from openair.protocol.framing import FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
 from openair.server.cli_serve import serve
 
 

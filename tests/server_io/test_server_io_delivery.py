@@ -7,14 +7,14 @@ from pathlib import Path
 
 from server_io_helpers import BOUND, Raw, TestModule, post, run, serving
 
-from openair.framing import FrameTag
-from openair.message import Message
-from openair.server.app import ServerOptions
-from openair.server.config import ServerLimits
-from openair.server.delivery import DeliveryOptions
-from openair.server.protocol import FlowLimits
-from openair.server.store import SqliteStore
-from openair.wakeup import parse_wakeup
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
+from openair.protocol.wakeup import parse_wakeup
+from openair.server.aio.app import ServerOptions
+from openair.server.aio.delivery import DeliveryOptions
+from openair.server.aio.protocol import FlowLimits
+from openair.server.aio.stores import SqliteStore
+from openair.server.core.config import ServerLimits
 
 FAST = DeliveryOptions(deadline_s=0.3, backoff_s=(0.01, 0.01))
 

@@ -13,16 +13,16 @@ from typing import Any
 import pytest
 from server_io_helpers import BOUND, Raw, run, serving
 
-from openair.codec import to_frame
-from openair.framing import encode_frame
-from openair.message import Message
-from openair.objects import encode_message_collection, parse_message_collection
-from openair.server import commands as commands_module
-from openair.server import retrieve as retrieve_module
-from openair.server import router as router_module
-from openair.server.retrieve import PreparedRetrieve, answer_retrieve, prepare_retrieve
-from openair.server.store import MemoryStore
-from openair.server.whiteboard import Whiteboard
+from openair.protocol.codec import to_frame
+from openair.protocol.framing import encode_frame
+from openair.protocol.message import Message
+from openair.protocol.objects import encode_message_collection, parse_message_collection
+from openair.server.core import commands as commands_module
+from openair.server.core import retrieve as retrieve_module
+from openair.server.core import router as router_module
+from openair.server.core.retrieve import PreparedRetrieve, answer_retrieve, prepare_retrieve
+from openair.server.core.store import MemoryStore
+from openair.server.core.whiteboard import Whiteboard
 
 KIB = 1024
 LARGE = retrieve_module._LARGE_SCAN + 100  # copies enough for a retrieve off the loop

@@ -7,12 +7,12 @@ from typing import Any
 
 from server_io_helpers import run
 
-from openair.codec import from_frame, to_frame
-from openair.framing import FrameReader, FrameTag, encode_frame
-from openair.message import Message
-from openair.server.config import ServerLimits
-from openair.server.protocol import FlowLimits, Role, ServerConnection
-from openair.server.router import Outcome
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.framing import FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.server.aio.protocol import FlowLimits, Role, ServerConnection
+from openair.server.core.config import ServerLimits
+from openair.server.core.router import Outcome
 
 
 class FakeTransport(asyncio.Transport):

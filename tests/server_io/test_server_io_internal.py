@@ -16,10 +16,10 @@ import internal_handlers
 import pytest
 from server_io_helpers import BOUND, Raw, TestModule, run, serving
 
-from openair.message import Message
-from openair.server.app import Server, ServerOptions, start_server
-from openair.server.config import ConfigError, parse_config
-from openair.wakeup import parse_wakeup
+from openair.protocol.message import Message
+from openair.protocol.wakeup import parse_wakeup
+from openair.server.aio.app import Server, ServerOptions, start_server
+from openair.server.core.config import ConfigError, parse_config
 
 
 def _spec(name: str, code: str, trigger: str) -> bytes:

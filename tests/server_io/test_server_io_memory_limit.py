@@ -19,10 +19,10 @@ from pathlib import Path
 
 import pytest
 
-from openair.codec import from_frame, to_frame
-from openair.framing import FrameReader, encode_frame
-from openair.message import Message
-from openair.objects import parse_dictionary
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.framing import FrameReader, encode_frame
+from openair.protocol.message import Message
+from openair.protocol.objects import parse_dictionary
 
 MIB = 1 << 20
 _HEADROOM = 300 * MIB  # address space allowed above the idle server's

@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from openair.message import Message
-from openair.server.queues import DeliveryQueue
+from openair.protocol.message import Message
+from openair.server.core.queues import DeliveryQueue
 
 PRIORITIES = st.sampled_from([0.0, 1.0, 2.0, 2.5, 6.999])
 WB_PRIORITIES = st.sampled_from([0.0, 1.0, 3.0])

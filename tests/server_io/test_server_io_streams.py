@@ -12,11 +12,11 @@ import asyncio
 
 from server_io_helpers import BOUND, Raw, TestModule, run, serving
 
-from openair.datasample import DataSample, decode_chunk, encode_chunk
-from openair.framing import Frame, FrameTag, encode_frame
-from openair.message import Message
-from openair.server.app import ServerOptions
-from openair.server.config import ServerLimits
+from openair.protocol.datasample import DataSample, decode_chunk, encode_chunk
+from openair.protocol.framing import Frame, FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.server.aio.app import ServerOptions
+from openair.server.core.config import ServerLimits
 
 
 def add(stream: str, payload: bytes, sender: str = "Writer", seq: int | None = None) -> Message:

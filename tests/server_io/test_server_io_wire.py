@@ -7,12 +7,12 @@ import struct
 
 from server_io_helpers import Raw, TestModule, post, run, serving
 
-from openair.codec import encode_message
-from openair.framing import Frame as RawFrame
-from openair.framing import FrameTag, encode_frame
-from openair.message import Message
-from openair.server.app import ServerOptions
-from openair.server.config import ServerLimits
+from openair.protocol.codec import encode_message
+from openair.protocol.framing import Frame as RawFrame
+from openair.protocol.framing import FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.server.aio.app import ServerOptions
+from openair.server.core.config import ServerLimits
 
 
 def header(tag: bytes, length: int) -> bytes:

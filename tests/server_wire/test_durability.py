@@ -21,8 +21,8 @@ from pathlib import Path
 import pytest
 from wire_helpers import WAIT, RawConn, collection_messages, content_elements, now
 
-from openair.message import Message
-from openair.xmlsafe import local_name
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import local_name
 
 BOARDS = ("WB1", "WB2")
 POSTERS = 4

@@ -36,8 +36,8 @@ from wire_helpers import (
     now,
 )
 
-from openair.message import Message
-from openair.server.config import WhiteboardConfig, default_config
+from openair.protocol.message import Message
+from openair.server.core.config import WhiteboardConfig, default_config
 
 SMALL_MAX = 3
 BOARDS = ("WB1", "WB2", "Small")

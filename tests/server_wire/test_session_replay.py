@@ -29,10 +29,10 @@ from wire_helpers import (
     now,
 )
 
-from openair.codec import decode_message
-from openair.framing import FrameTag
-from openair.message import Message
-from openair.xmlsafe import local_name
+from openair.protocol.codec import decode_message
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import local_name
 
 VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors" / "sessions"
 FORMAT = "openair-session-vectors/1"

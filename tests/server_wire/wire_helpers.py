@@ -1,8 +1,8 @@
 """Raw-socket helpers for the server wire tests: frames in and out, legacy modules, a server thread.
 
-Only `openair.framing` and `openair.codec` (plus `xmlsafe` to read content objects) are used on
-the wire, never `openair.client`: these tests must see exactly what the server sends. Every wait
-is bounded by a deadline (`WAIT`); nothing sleeps to synchronise.
+Only `openair.protocol.framing` and `openair.protocol.codec` (plus `xmlsafe` to read content
+objects) are used on the wire, never `openair.client`: these tests must see exactly what the server
+sends. Every wait is bounded by a deadline (`WAIT`); nothing sleeps to synchronise.
 """
 
 from __future__ import annotations
@@ -19,11 +19,11 @@ from typing import Any
 from lxml import etree
 from server_thread import ReferenceServer as ServerThread  # noqa: F401 (re-exported)
 
-from openair.codec import from_frame, message_from_element, to_frame
-from openair.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
-from openair.message import Message
-from openair.times import AirTime
-from openair.xmlsafe import local_name, parse_fragment
+from openair.protocol.codec import from_frame, message_from_element, to_frame
+from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.protocol.xmlsafe import local_name, parse_fragment
 
 #: The bounded deadline (seconds) for any reply, delivery or close the tests wait for.
 WAIT = 15.0

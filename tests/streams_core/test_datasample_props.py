@@ -1,4 +1,4 @@
-"""Properties of openair.datasample: encode/decode are inverse; decode refuses only cleanly."""
+"""Properties of openair.protocol.datasample: encode/decode are inverse; decode refuses cleanly."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from openair.datasample import (
+from openair.protocol.datasample import (
     BUILTIN_ID,
     BUILTIN_SEQ,
     BUILTIN_TIMESTAMP,
@@ -19,7 +19,7 @@ from openair.datasample import (
     encode_params,
     param_problem,
 )
-from openair.errors import ApiMisuseError, SampleInvalidError
+from openair.protocol.errors import ApiMisuseError, SampleInvalidError
 
 # Pieces biased towards the separators' fragments, so that the edge rules get hit; the full
 # separators are rarer, as they only ever make a pair unsafe.

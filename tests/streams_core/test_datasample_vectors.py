@@ -1,4 +1,4 @@
-"""The shared datasample chunk vectors (spec/vectors/samples) against openair.datasample."""
+"""The shared datasample chunk vectors (spec/vectors/samples) against `protocol.datasample`."""
 
 from __future__ import annotations
 
@@ -8,8 +8,14 @@ from typing import Any
 
 import pytest
 
-from openair.datasample import DataSample, chunk_parts, decode_chunk, encode_chunk, encode_params
-from openair.errors import OpenAIRError, error_for
+from openair.protocol.datasample import (
+    DataSample,
+    chunk_parts,
+    decode_chunk,
+    encode_chunk,
+    encode_params,
+)
+from openair.protocol.errors import OpenAIRError, error_for
 
 VECTORS = Path(__file__).resolve().parents[2] / "spec" / "vectors"
 TABLE: dict[str, Any] = json.loads((VECTORS / "samples" / "chunks.json").read_text("ascii"))

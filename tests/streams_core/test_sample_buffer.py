@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from openair.datasample import DataSample
-from openair.errors import ApiMisuseError
-from openair.server.streams import SampleBuffer, StoredSample, Stream, StreamSpec
+from openair.protocol.datasample import DataSample
+from openair.protocol.errors import ApiMisuseError
+from openair.server.core.streams import SampleBuffer, StoredSample, Stream, StreamSpec
 
 
 def stored(n: int) -> list[StoredSample]:

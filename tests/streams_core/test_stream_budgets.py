@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from openair.datasample import DataSample
-from openair.errors import LimitExceededError
-from openair.server.streams import SampleBuffer, StoredSample, Stream, StreamSpec
-from openair.server.streamservice import StreamService
+from openair.protocol.datasample import DataSample
+from openair.protocol.errors import LimitExceededError
+from openair.server.core.streams import SampleBuffer, StoredSample, Stream, StreamSpec
+from openair.server.core.streamservice import StreamService
 
 KIB = 1024
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from openair.datasample import DataSample, decode_chunk, encode_chunk
-from openair.errors import ApiMisuseError, ContentInvalidError, SampleInvalidError
-from openair.server.config import StreamConfig
-from openair.server.streams import StoredSample, Stream, StreamSpec
+from openair.protocol.datasample import DataSample, decode_chunk, encode_chunk
+from openair.protocol.errors import ApiMisuseError, ContentInvalidError, SampleInvalidError
+from openair.server.core.config import StreamConfig
+from openair.server.core.streams import StoredSample, Stream, StreamSpec
 
 MS = 1_000_000  # ns per ms
 

@@ -9,9 +9,9 @@ from hypothesis import settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
 
-from openair.datasample import DataSample
-from openair.errors import SampleInvalidError
-from openair.server.streams import StoredSample, Stream, StreamSpec
+from openair.protocol.datasample import DataSample
+from openair.protocol.errors import SampleInvalidError
+from openair.server.core.streams import StoredSample, Stream, StreamSpec
 
 MS = 1_000_000
 # The retrieve globs the search rule uses, and what each means for a tag (OA-RET-8).

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from openair.datasample import DataSample
-from openair.errors import ContentInvalidError, SampleInvalidError
-from openair.server.config import StreamConfig
-from openair.server.streams import AddResult, Alarm, Stream, StreamSpec
+from openair.protocol.datasample import DataSample
+from openair.protocol.errors import ContentInvalidError, SampleInvalidError
+from openair.server.core.config import StreamConfig
+from openair.server.core.streams import AddResult, Alarm, Stream, StreamSpec
 
 MS = 1_000_000  # ns per ms
 T0 = 1_700_000_000_000  # ms since the epoch

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from openair.errors import ApiMisuseError, ContentInvalidError
+from openair.protocol.errors import ApiMisuseError, ContentInvalidError
 from openair.worldmodel import Blackboard, ClassDef, FunctionRef, Packet, WMObject, WorldModelCore
 from openair.worldmodel.interface import Outgoing, ReportFilter
 from openair.worldmodel.wire import decode_class, decode_report, encode_class

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 from server_thread import ServerThread
 
 from openair.cli import main
-from openair.server.app import ServerOptions, start_server
+from openair.server.aio.app import ServerOptions, start_server
 from openair.worldmodel.node import WorldModelNode
 from openair_conformance.worldmodel import CASES
 

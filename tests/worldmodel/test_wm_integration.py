@@ -9,7 +9,7 @@ from collections.abc import Awaitable, Callable
 from click.testing import CliRunner
 
 from openair.cli import main
-from openair.server.app import ServerOptions, start_server
+from openair.server.aio.app import ServerOptions, start_server
 from openair.worldmodel import Context
 from openair.worldmodel.node import WorldModelNode
 from openair_conformance.worldmodel import CASES, run_cases

@@ -10,7 +10,7 @@ import pytest
 import xmlschema
 from lxml import etree
 
-from openair.errors import ContentInvalidError, XmlForbiddenError, XmlTooDeepError
+from openair.protocol.errors import ContentInvalidError, XmlForbiddenError, XmlTooDeepError
 from openair.worldmodel import wire
 
 ROOT = Path(__file__).resolve().parents[2]

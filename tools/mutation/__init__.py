@@ -11,18 +11,19 @@ from __future__ import annotations
 
 __all__ = ["MODULE_GROUPS", "resolve_modules"]
 
-_SERVER = "reference/openair/server/"
+_CORE = "reference/openair/server/core/"
+_AIO = "reference/openair/server/aio/"
 
 #: The modules issue 15 names, by the area they implement; the report groups rows by these.
 MODULE_GROUPS: dict[str, tuple[str, ...]] = {
-    "routing": (_SERVER + "router.py",),
-    "whiteboard": (_SERVER + "whiteboard.py",),
-    "retrieve": (_SERVER + "retrieve.py",),
-    "registration": ("reference/openair/registration.py",),
-    "wakeup": ("reference/openair/wakeup.py",),
-    "delivery": (_SERVER + "delivery.py", _SERVER + "queues.py"),
-    "sessions": (_SERVER + "sessions.py",),
-    "streams": (_SERVER + "streams.py", _SERVER + "streamservice.py"),
+    "routing": (_CORE + "router.py",),
+    "whiteboard": (_CORE + "whiteboard.py",),
+    "retrieve": (_CORE + "retrieve.py",),
+    "registration": ("reference/openair/protocol/registration.py",),
+    "wakeup": ("reference/openair/protocol/wakeup.py",),
+    "delivery": (_AIO + "delivery.py", _CORE + "queues.py"),
+    "sessions": (_CORE + "sessions.py",),
+    "streams": (_CORE + "streams.py", _CORE + "streamservice.py"),
 }
 
 

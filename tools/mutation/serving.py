@@ -56,8 +56,8 @@ async def _cancel_the_rest() -> None:
 def serving(limits: tuple[tuple[str, int], ...] = ()) -> Iterator[tuple[str, int]]:
     """Start the reference server with these limits (others default) on 127.0.0.1; yield
     where it listens."""
-    from openair.server.app import ServerOptions, start_server
-    from openair.server.config import ServerLimits
+    from openair.server.aio.app import ServerOptions, start_server
+    from openair.server.core.config import ServerLimits
 
     server_limits = ServerLimits(**dict(limits))
     options = ServerOptions(host="127.0.0.1", port=0, limits=server_limits, grace_s=_GRACE_S)

@@ -13,9 +13,9 @@ from collections.abc import Iterable, Sequence
 
 from lxml import etree
 
-from openair.errors import ErrorCode
-from openair.framing import Frame, FrameTag
-from openair.message import Message
+from openair.protocol.errors import ErrorCode
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message
 from openair_conformance.harness import CaseContext, RawConnection, TestModule
 from openair_conformance.harness.checks import (
     WakeupUnreadable,

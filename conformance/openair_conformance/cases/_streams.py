@@ -1,7 +1,7 @@
 """Helpers of the stream cases (spec section 11): datasample chunks, a stream client, push readers.
 
-Chunks are written and read here, independently of the reference's `openair.datasample`, so that
-a shared bug cannot make the server and the suite agree. `StreamClient` sends media commands on
+Chunks are written and read here, independently of the reference's `openair.protocol.datasample`, so
+that a shared bug cannot make the server and the suite agree. `StreamClient` sends media commands on
 one raw connection, one request at a time, and checks the reply types the streams contract
 gives. `PushReader` plays a push subscriber (11.6) on a raw connection: it reads the pushed
 `DATASAMPLE` messages in the background and acknowledges them, or holds the acknowledgements
@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 from lxml import etree
 
-from openair.framing import Frame, FrameTag
-from openair.message import Message
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message
 from openair_conformance.cases._common import check_error, error_name, esc
 from openair_conformance.harness import CaseContext, RawConnection
 from openair_conformance.harness.checks import (

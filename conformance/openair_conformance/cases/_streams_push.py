@@ -13,8 +13,8 @@ import contextlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from openair.framing import FrameTag
-from openair.message import Message
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
 from openair_conformance.cases._streams import Sample, StreamClient, marker, read_chunk
 from openair_conformance.harness import CaseContext, RawConnection
 from openair_conformance.harness.conn import ConnectionLost, DecodeProblem

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from lxml import etree
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import check_error
 from openair_conformance.cases._streams import StreamClient, create_stream
 from openair_conformance.harness import CaseContext, TestModule

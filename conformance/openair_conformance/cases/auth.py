@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import re
 
-from openair.auth import proof
-from openair.framing import FrameTag
-from openair.message import Message
+from openair.protocol.auth import proof
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
 from openair_conformance.cases._common import check_error, next_request, ping_ok
 from openair_conformance.harness import CaseContext
 from openair_conformance.harness.conn import ConnectionLost

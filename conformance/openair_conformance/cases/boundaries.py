@@ -10,8 +10,8 @@ from __future__ import annotations
 import random
 from dataclasses import fields, replace
 
-from openair.message import Message, Slot
-from openair.times import AirTime
+from openair.protocol.message import Message, Slot
+from openair.protocol.times import AirTime
 from openair_conformance.cases._common import (
     ack,
     retrieved,

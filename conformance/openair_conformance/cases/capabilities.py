@@ -4,7 +4,7 @@ declaring an unknown extension, `gettime` and the `monitor` extension's HTTP end
 
 from __future__ import annotations
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     cns_request,
 )

@@ -7,7 +7,7 @@ touch `Psyclone.System.Ready`, which every other case depends on.
 
 from __future__ import annotations
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import setup_subscribe, trigger_ids, triggers_xml, view_of
 from openair_conformance.harness import CaseContext, TestModule
 from openair_conformance.registry import case

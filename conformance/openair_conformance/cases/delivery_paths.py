@@ -10,8 +10,8 @@ from __future__ import annotations
 import asyncio
 import socket
 
-from openair.framing import FrameTag
-from openair.message import Message
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
 from openair_conformance.cases._common import ack, esc, next_request, retrieved, triggers_xml
 from openair_conformance.harness import CaseContext, RawConnection, TestModule
 from openair_conformance.harness.checks import (

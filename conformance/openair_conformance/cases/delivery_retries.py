@@ -13,7 +13,7 @@ import asyncio
 import contextlib
 import time
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import triggers_xml
 from openair_conformance.harness import CaseContext, RawConnection, TestModule
 from openair_conformance.harness.checks import is_phase_update, wakeup_trigger_id

@@ -11,7 +11,7 @@ import re
 
 from lxml import etree
 
-from openair.message import CANONICAL_SLOTS, Message
+from openair.protocol.message import CANONICAL_SLOTS, Message
 from openair_conformance.cases._common import (
     check_error,
     esc,

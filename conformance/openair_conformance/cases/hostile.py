@@ -9,8 +9,8 @@ from __future__ import annotations
 import asyncio
 import struct
 
-from openair.framing import Frame, FrameTag
-from openair.message import Message
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     ERROR_NAMES,
     LOCAL_ERROR_NAMES,

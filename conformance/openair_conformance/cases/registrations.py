@@ -8,7 +8,7 @@ from __future__ import annotations
 import asyncio
 import time
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     check_error,
     esc,

@@ -10,8 +10,8 @@ import asyncio
 import struct
 from dataclasses import replace
 
-from openair.message import Message
-from openair.times import AirTime
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 from openair_conformance.cases._common import (
     check_error,
     esc,

@@ -10,8 +10,8 @@ from __future__ import annotations
 import re
 import socket
 
-from openair.framing import FrameTag
-from openair.message import Message
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     COMPONENTS,
     ack,

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import asyncio
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     COMPONENTS,
     cns_request,

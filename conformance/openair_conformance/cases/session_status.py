@@ -4,7 +4,7 @@ ContextsAndPhases, AIRServer), and lifecycle notices.
 
 from __future__ import annotations
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     ADDRESSES,
     cns_request,

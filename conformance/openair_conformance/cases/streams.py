@@ -12,7 +12,7 @@ streams_typed.py.
 
 from __future__ import annotations
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import check_error
 from openair_conformance.cases._streams import (
     MIB,

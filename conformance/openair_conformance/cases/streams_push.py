@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from openair.framing import FrameTag
-from openair.message import Message
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
 from openair_conformance.cases._common import check_error, esc, ping_ok
 from openair_conformance.cases._streams import (
     StreamClient,

@@ -10,7 +10,7 @@ streams_alarms.py.
 
 from __future__ import annotations
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import check_error, esc
 from openair_conformance.cases._streams import (
     StreamClient,

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import time
 
-from openair.framing import Frame, FrameTag
-from openair.message import Message
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message
 from openair_conformance.cases._common import check_error
 from openair_conformance.cases._streams import (
     StreamClient,

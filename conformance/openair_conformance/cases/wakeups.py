@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import time
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     esc,
     setup_subscribe,

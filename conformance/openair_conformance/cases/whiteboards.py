@@ -7,7 +7,7 @@ from __future__ import annotations
 import itertools
 import struct
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     esc,
     message_xml,

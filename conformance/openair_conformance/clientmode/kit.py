@@ -15,15 +15,15 @@ import uuid
 from dataclasses import replace
 from typing import Any
 
-from openair.codec import to_frame
-from openair.content import Phase, RetrieveSpec
-from openair.errors import OpenAIRError
-from openair.framing import Frame, FrameTag
-from openair.message import Message
-from openair.objects import parse_message_collection
-from openair.registration import encode_retrieve
-from openair.times import AirTime
-from openair.wakeup import build_wakeup
+from openair.protocol.codec import to_frame
+from openair.protocol.content import Phase, RetrieveSpec
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message
+from openair.protocol.objects import parse_message_collection
+from openair.protocol.registration import encode_retrieve
+from openair.protocol.times import AirTime
+from openair.protocol.wakeup import build_wakeup
 from openair_conformance.harness.conn import (
     ConnectionLost,
     DecodeProblem,

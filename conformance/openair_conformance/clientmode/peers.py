@@ -1,6 +1,6 @@
 """The peers a library is judged against: the reference server, in process, behind the tap.
 
-Every peer kind of schemas/scenario.xsd is the reference server (`openair.server.app`) on a free
+Every peer kind of schemas/scenario.xsd is the reference server (`openair.server.aio.app`) on a free
 port of 127.0.0.1 with the kit's `Tap` in front of it; the scripted kinds make the tap misbehave
 (`Behaviour`), and `legacy` also starts the server without extensions. The server's own
 connections to the module's bound port are routed through the tap too, by wrapping the server's
@@ -14,8 +14,8 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Any
 
-from openair.server.app import DEFAULT_EXTENSIONS, Server, ServerOptions, start_server
-from openair.server.protocol import FlowLimits
+from openair.server.aio.app import DEFAULT_EXTENSIONS, Server, ServerOptions, start_server
+from openair.server.aio.protocol import FlowLimits
 from openair_conformance.clientmode.scenario import PeerSpec
 from openair_conformance.clientmode.tap import Behaviour, Capture, Tap
 

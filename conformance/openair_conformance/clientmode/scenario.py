@@ -21,8 +21,8 @@ from pathlib import Path
 
 from lxml import etree
 
-from openair.errors import OpenAIRError
-from openair.xmlsafe import XmlLimits, parse_xml
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.xmlsafe import XmlLimits, parse_xml
 from openair_conformance.model import CaseInfo, Level
 
 __all__ = [

@@ -20,14 +20,14 @@ from collections.abc import Awaitable, Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from openair.attachments import parse_results
 from openair.client.stream_wire import add_sample_request
-from openair.content import RetrieveSpec
-from openair.datasample import DataSample, encode_chunk
-from openair.errors import OpenAIRError
-from openair.message import Message
-from openair.objects import element, serialize
-from openair.registration import encode_retrieve
+from openair.protocol.attachments import parse_results
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.datasample import DataSample, encode_chunk
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.message import Message
+from openair.protocol.objects import element, serialize
+from openair.protocol.registration import encode_retrieve
 from openair_conformance.clientmode.values import MISSING, Values, lookup
 from openair_conformance.model import Inconclusive, NotApplicable
 from openair_conformance.shim.driver import STREAM_COMMANDS, ShimError

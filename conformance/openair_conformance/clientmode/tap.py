@@ -28,12 +28,12 @@ import time
 from collections import deque
 from dataclasses import dataclass, field, replace
 
-from openair.codec import from_frame, to_frame
-from openair.errors import OpenAIRError
-from openair.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
-from openair.matching import matches
-from openair.message import Message
-from openair.times import AirTime
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
+from openair.protocol.matching import matches
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 from openair_conformance.harness.trace import Trace
 
 __all__ = [

@@ -13,10 +13,10 @@ from functools import cache
 
 from lxml import etree
 
-from openair.errors import OpenAIRError
-from openair.framing import FrameTag
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.framing import FrameTag
+from openair.protocol.xmlsafe import local_name, parse_xml
 from openair.resources import schema_path
-from openair.xmlsafe import local_name, parse_xml
 from openair_conformance.clientmode.tap import Capture, ConnKind, WireFrame
 
 __all__ = ["CHECKS", "Problem", "WireContext", "run_checks"]

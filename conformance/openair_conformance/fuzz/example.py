@@ -22,7 +22,7 @@ import html
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.fuzz.model import LOST_SENDER, RoutingModel, Stored, Trigger
 from openair_conformance.harness import CaseContext, TestModule
 from openair_conformance.harness.checks import (

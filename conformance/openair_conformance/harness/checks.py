@@ -1,8 +1,8 @@
 """Independent readers of what the server sends, for cases to check (the suite is the judge).
 
 `wakeup_view` takes an `AIR.Instruct.Wakeup` apart without trusting the reference's own
-`openair.wakeup` reader, so that a shared bug cannot make both agree: object names and their
-order (OA-WAKE-1), the trigger message (OA-WAKE-2), the retrieved messages (OA-WAKE-3) and the
+`openair.protocol.wakeup` reader, so that a shared bug cannot make both agree: object names and
+their order (OA-WAKE-1), the trigger message (OA-WAKE-2), the retrieved messages (OA-WAKE-3) and the
 `<phase>` attributes (OA-WAKE-4); likewise retrieve results and other content objects. Names
 of content-object elements and attributes are compared case-insensitively (OA-MSG-3).
 """
@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 from lxml import etree
 
-from openair.codec import message_from_element
-from openair.message import Message
+from openair.protocol.codec import message_from_element
+from openair.protocol.message import Message
 
 __all__ = [
     "WakeupUnreadable",

@@ -19,11 +19,11 @@ from collections.abc import Callable
 from contextvars import ContextVar
 from dataclasses import dataclass, replace
 
-from openair.codec import from_frame, to_frame
-from openair.errors import OpenAIRError
-from openair.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
-from openair.message import Message
-from openair.times import AirTime
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 from openair_conformance.harness.trace import Trace
 
 __all__ = [

@@ -18,7 +18,7 @@ import time
 from collections.abc import Awaitable, Mapping
 from typing import NoReturn, TypeVar
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.harness.conn import ConnectionLost, DecodeProblem
 from openair_conformance.harness.peer import TestModule
 from openair_conformance.harness.raw import RawConnection
@@ -265,7 +265,7 @@ class CaseContext:
     # -- evidence ------------------------------------------------------------------------------
 
     def message(self, type: str, **fields: object) -> Message:
-        """Build a message (fields as in `openair.message.Message`; `from` is `sender`)."""
+        """Build a message (fields as in `openair.protocol.message.Message`; `from` is `sender`)."""
         return Message(type=type, **fields)  # type: ignore[arg-type]
 
     def note(self, text: str) -> None:

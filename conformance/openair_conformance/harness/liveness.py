@@ -12,7 +12,7 @@ import subprocess
 import time
 from collections.abc import Mapping, Sequence
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.harness.conn import (
     ConnectionLost,
     DecodeProblem,

@@ -15,8 +15,8 @@ import contextlib
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
-from openair.framing import FrameTag
-from openair.message import Message
+from openair.protocol.framing import FrameTag
+from openair.protocol.message import Message
 from openair_conformance.harness.checks import (
     is_phase_update,
     registered_module_name,

@@ -13,7 +13,7 @@ import time
 
 from lxml import etree
 
-from openair.message import Message
+from openair.protocol.message import Message
 from openair_conformance.harness.conn import (
     ConnectionLost,
     DecodeProblem,

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from openair.framing import Frame, FrameTag
-from openair.message import Message
+from openair.protocol.framing import Frame, FrameTag
+from openair.protocol.message import Message
 from openair_conformance.harness.conn import (
     ConnectionLost,
     DecodeProblem,

@@ -11,8 +11,8 @@ import xmlschema
 from lxml import etree
 
 from openair.client import Module, WakeupEvent
-from openair.content import RetrieveSpec, Trigger
-from openair.message import Message
+from openair.protocol.content import RetrieveSpec, Trigger
+from openair.protocol.message import Message
 from openair.worldmodel.wire import TYPE_ACK, TYPE_REPORT, PlanAck, decode_ack
 from openair_conformance.model import Fail
 

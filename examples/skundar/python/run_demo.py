@@ -40,7 +40,7 @@ from skundar_common import (
 )
 
 from openair.client import Module
-from openair.content import RetrieveSpec
+from openair.protocol.content import RetrieveSpec
 
 HERE = Path(__file__).resolve().parent
 SKUNDAR = HERE.parent

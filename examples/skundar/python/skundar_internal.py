@@ -13,7 +13,7 @@ from typing import Protocol
 from skundar_common import COUNTS_PER_M, GYRO_PER_RAD, PERCEPTION, TRACK, Pose, kv
 from skundar_tracker import track_content
 
-from openair.message import Message
+from openair.protocol.message import Message
 
 
 class _Internal(Protocol):

@@ -12,7 +12,7 @@ import sys
 from skundar_common import LOAD, ready, run_module, server_address
 
 from openair.client import Module
-from openair.content import Trigger
+from openair.protocol.content import Trigger
 
 BATCH = 32
 

@@ -34,7 +34,7 @@ from skundar_common import (
 )
 
 from openair.client import Module, WakeupEvent
-from openair.content import Trigger
+from openair.protocol.content import Trigger
 
 STEP_S = 0.005
 

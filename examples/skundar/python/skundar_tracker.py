@@ -19,7 +19,7 @@ from skundar_common import (
 )
 
 from openair.client import Module
-from openair.content import Trigger
+from openair.protocol.content import Trigger
 
 
 def track_content(pose: Pose, motion: dict[str, str]) -> str:

@@ -26,7 +26,7 @@ from skundar_common import (
 from skundar_jpeg import encode
 
 from openair.client import Module
-from openair.content import Trigger
+from openair.protocol.content import Trigger
 
 COLS, ROWS = 20, 15  # 8x8 blocks: 160x120 pixels
 FOV = math.radians(60)

@@ -10,11 +10,18 @@ from __future__ import annotations
 import asyncio
 import ssl
 
-from openair.auth import AUTH_ACCEPT, AUTH_CHALLENGE, AUTH_NONCE, AUTH_RESPONSE, EXTENSION, proof
 from openair.client.link import Link
 from openair.client.session import ClientConnection, Closed, Reply
-from openair.errors import ConnectionClosedError, RequestFailedError
-from openair.message import Message
+from openair.protocol.auth import (
+    AUTH_ACCEPT,
+    AUTH_CHALLENGE,
+    AUTH_NONCE,
+    AUTH_RESPONSE,
+    EXTENSION,
+    proof,
+)
+from openair.protocol.errors import ConnectionClosedError, RequestFailedError
+from openair.protocol.message import Message
 
 __all__ = [
     "AuthRefusedError",

@@ -14,10 +14,10 @@ from types import TracebackType
 from typing import Any, TypeVar
 
 from openair.client.module import MessageEvent, Module, WakeupEvent
-from openair.content import Registration, RetrieveSpec, TcpLocation, Trigger
-from openair.errors import ApiMisuseError
-from openair.message import Message
-from openair.objects import Capabilities
+from openair.protocol.content import Registration, RetrieveSpec, TcpLocation, Trigger
+from openair.protocol.errors import ApiMisuseError
+from openair.protocol.message import Message
+from openair.protocol.objects import Capabilities
 
 _T = TypeVar("_T")
 

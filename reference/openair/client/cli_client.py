@@ -21,20 +21,20 @@ from typing import IO, Any, TypeVar
 
 import click
 
-from openair.address import parse_server
 from openair.client.module import FailedReplyError, Module, WakeupEvent
-from openair.content import RetrieveSpec, Trigger
-from openair.errors import (
+from openair.protocol.address import parse_server
+from openair.protocol.content import RetrieveSpec, Trigger
+from openair.protocol.errors import (
     ConnectionClosedError,
     ForwardFailedError,
     OpenAIRError,
     RequestTimeoutError,
     WhiteboardUnknownError,
 )
-from openair.message import Message
-from openair.times import AirTime
-from openair.types import validate_pattern, validate_type
-from openair.xmlsafe import parse_fragment
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
+from openair.protocol.types import validate_pattern, validate_type
+from openair.protocol.xmlsafe import parse_fragment
 
 EXIT_OK = 0
 EXIT_FAILED = 1

@@ -27,8 +27,8 @@ import click
 from openair.client.cli_client import _EPILOG, EXIT_FAILED, _client, _run, _server_option
 from openair.client.module import Module
 from openair.client.stream_wire import ReceivedSample, StreamInfo
-from openair.datasample import BUILTIN_ID, BUILTIN_TIMESTAMP
-from openair.errors import ConnectionClosedError, OpenAIRError
+from openair.protocol.datasample import BUILTIN_ID, BUILTIN_TIMESTAMP
+from openair.protocol.errors import ConnectionClosedError, OpenAIRError
 
 _MIB = 1_048_576
 _LS_COLUMNS = ("NAME", "WHITEBOARD", "TYPE", "COUNT", "SIZE", "FILL", "SUBSCRIBERS")

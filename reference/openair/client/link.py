@@ -16,8 +16,8 @@ from collections import deque
 from collections.abc import Callable
 
 from openair.client.session import Buffer, ClientConnection, Closed, Reply
-from openair.errors import ConnectionClosedError, RemoteProtocolError, RequestTimeoutError
-from openair.message import Message
+from openair.protocol.errors import ConnectionClosedError, RemoteProtocolError, RequestTimeoutError
+from openair.protocol.message import Message
 
 _READ_SIZE = 65536
 # Frame parts at least this large are written as they are (never copied); smaller neighbours are

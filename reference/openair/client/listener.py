@@ -22,8 +22,8 @@ import time
 from collections.abc import Awaitable, Callable, Coroutine, Iterable
 
 from openair.client.session import ClientConnection, Closed, Invalid, Reply, Request, Role
-from openair.errors import OpenAIRError, RemoteProtocolError
-from openair.message import Message
+from openair.protocol.errors import OpenAIRError, RemoteProtocolError
+from openair.protocol.message import Message
 
 log = logging.getLogger("openair.client")
 

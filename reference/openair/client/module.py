@@ -36,21 +36,21 @@ from openair.client.requests import FailedReplyError as FailedReplyError
 from openair.client.requests import Requests, _expect
 from openair.client.session import CLIENT_EXTENSIONS, DEFAULT_MAX_IN_FLIGHT, ClientConnection
 from openair.client.stream_wire import ReceivedSample, StreamInfo, received_sample
-from openair.content import (
+from openair.protocol.content import (
     Registration,
 )
-from openair.errors import (
+from openair.protocol.errors import (
     ApiMisuseError,
     ConnectionClosedError,
     OpenAIRError,
 )
-from openair.message import Message
-from openair.objects import (
+from openair.protocol.message import Message
+from openair.protocol.objects import (
     Capabilities,
     parse_capabilities,
 )
-from openair.types import is_valid_type, validate_pattern
-from openair.wakeup import Wakeup, parse_wakeup
+from openair.protocol.types import is_valid_type, validate_pattern
+from openair.protocol.wakeup import Wakeup, parse_wakeup
 
 if TYPE_CHECKING:  # stream_push.py and streams.py import this module
     from openair.client.stream_push import AlarmSubscription, ModuleStreams, StreamSubscription

@@ -13,9 +13,9 @@ import time
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
 
-from openair.attachments import parse_results
 from openair.client.link import Link
-from openair.content import (
+from openair.protocol.attachments import parse_results
+from openair.protocol.content import (
     Phase,
     Registration,
     RegistrationForm,
@@ -24,7 +24,7 @@ from openair.content import (
     TcpLocation,
     Trigger,
 )
-from openair.errors import (
+from openair.protocol.errors import (
     ERRORS,
     ApiMisuseError,
     Blame,
@@ -33,12 +33,12 @@ from openair.errors import (
     RequestFailedError,
     RequestTimeoutError,
 )
-from openair.message import Message
-from openair.objects import (
+from openair.protocol.message import Message
+from openair.protocol.objects import (
     parse_tcplocation,
 )
-from openair.registration import encode_registration, encode_retrieve, encode_retrieves
-from openair.types import validate_pattern, validate_type
+from openair.protocol.registration import encode_registration, encode_retrieve, encode_retrieves
+from openair.protocol.types import validate_pattern, validate_type
 
 log = logging.getLogger("openair.client")
 

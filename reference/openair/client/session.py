@@ -26,17 +26,24 @@ from dataclasses import dataclass, replace
 
 from lxml import etree
 
-from openair.codec import encode_message, from_frame, message_to_element, to_frame
-from openair.errors import (
+from openair.protocol.codec import encode_message, from_frame, message_to_element, to_frame
+from openair.protocol.errors import (
     ApiMisuseError,
     ConnectionClosedError,
     MessageInvalidError,
     OpenAIRError,
     RemoteProtocolError,
 )
-from openair.framing import MAX_LENGTH, Frame, FrameLimits, FrameReader, FrameTag, encode_frame
-from openair.message import CANONICAL_SLOTS, Message
-from openair.times import AirTime
+from openair.protocol.framing import (
+    MAX_LENGTH,
+    Frame,
+    FrameLimits,
+    FrameReader,
+    FrameTag,
+    encode_frame,
+)
+from openair.protocol.message import CANONICAL_SLOTS, Message
+from openair.protocol.times import AirTime
 
 #: Extensions this client implements (OA-EXT-1); a module declares a subset (OA-SESS-19).
 CLIENT_EXTENSIONS: frozenset[str] = frozenset({"noreply", "pipelining", "usec", "gettime"})

@@ -25,10 +25,10 @@ from typing import Any
 from openair.client.module import Module, WakeupEvent
 from openair.client.session import CLIENT_EXTENSIONS
 from openair.client.shim_streams import StreamCommands, decode_b64
-from openair.content import RetrieveSpec, Trigger
-from openair.errors import ApiMisuseError, OpenAIRError
-from openair.message import Message
-from openair.times import AirTime
+from openair.protocol.content import RetrieveSpec, Trigger
+from openair.protocol.errors import ApiMisuseError, OpenAIRError
+from openair.protocol.message import Message
+from openair.protocol.times import AirTime
 
 __all__ = [
     "LIBRARY",

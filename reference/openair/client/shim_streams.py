@@ -20,8 +20,8 @@ from openair.client.module import ALARM_PATTERN, Module
 from openair.client.stream_push import AlarmSubscription, StreamSubscription
 from openair.client.stream_wire import ReceivedSample, StreamAlarm, StreamInfo
 from openair.client.streams import StreamHandle
-from openair.datasample import DataSample
-from openair.errors import ApiMisuseError, ConnectionClosedError
+from openair.protocol.datasample import DataSample
+from openair.protocol.errors import ApiMisuseError, ConnectionClosedError
 
 __all__ = [
     "StreamCommands",

@@ -38,15 +38,15 @@ from openair.client.stream_wire import (
     stream_list_of,
 )
 from openair.client.streams import DATASAMPLE, StreamHandle, error_from, raise_for
-from openair.content import Trigger
-from openair.errors import (
+from openair.protocol.content import Trigger
+from openair.protocol.errors import (
     ApiMisuseError,
     ConnectionClosedError,
     OpenAIRError,
     RemoteProtocolError,
     RequestTimeoutError,
 )
-from openair.message import Message
+from openair.protocol.message import Message
 
 log = logging.getLogger("openair.client")
 

@@ -1,8 +1,8 @@
 """Stream requests and replies as values, without I/O (spec section 11, STREAMS.md section 2).
 
 The client's stream side (`streams.py`) builds its media commands here and reads the replies
-here: sample chunks are decoded with `openair.datasample.decode_chunk` (a memoryview slice of the
-received chunk, no copy), times travel as one `<time sec msec/>` element, `streaminfo`
+here: sample chunks are decoded with `openair.protocol.datasample.decode_chunk` (a memoryview slice
+of the received chunk, no copy), times travel as one `<time sec msec/>` element, `streaminfo`
 attributes become a `StreamInfo`, alarm posts become a `StreamAlarm`. A reply that does not have
 the shape the contract gives is CONTENT_INVALID (or SAMPLE_INVALID for a bad chunk).
 """
@@ -14,16 +14,16 @@ from dataclasses import dataclass, field, replace
 
 from lxml import etree
 
-from openair.datasample import (
+from openair.protocol.datasample import (
     BUILTIN_SEQ,
     BUILTIN_TIMESTAMP,
     DATASAMPLE_XML,
     DataSample,
     decode_chunk,
 )
-from openair.errors import ApiMisuseError, ContentInvalidError, SampleInvalidError
-from openair.message import Message
-from openair.objects import (
+from openair.protocol.errors import ApiMisuseError, ContentInvalidError, SampleInvalidError
+from openair.protocol.message import Message
+from openair.protocol.objects import (
     attr,
     element,
     elements,
@@ -35,8 +35,8 @@ from openair.objects import (
     parse_time,
     serialize,
 )
-from openair.times import AirTime
-from openair.xmlsafe import local_name
+from openair.protocol.times import AirTime
+from openair.protocol.xmlsafe import local_name
 
 ALARM_PREFIX = "AIR.Stream.Alarm."
 

@@ -46,15 +46,15 @@ from openair.client.stream_wire import (
     timestamp_of,
     wait_type,
 )
-from openair.datasample import DataSample, chunk_parts
-from openair.errors import (
+from openair.protocol.datasample import DataSample, chunk_parts
+from openair.protocol.errors import (
     ApiMisuseError,
     CommandUnknownError,
     ConnectionClosedError,
     OpenAIRError,
     SampleUnknownError,
 )
-from openair.message import Message
+from openair.protocol.message import Message
 
 log = logging.getLogger("openair.client")
 

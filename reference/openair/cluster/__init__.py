@@ -8,7 +8,7 @@ extra `cluster` (`pip install 'openair-kit[cluster]'`).
 
 from __future__ import annotations
 
-from openair.server.store import StoreSpecError
+from openair.server.core.store import StoreSpecError
 
 __all__ = ["open_cluster_store"]
 

@@ -30,14 +30,14 @@ from dataclasses import dataclass, field
 from functools import partial
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from openair.codec import decode_message, to_frame
-from openair.fastcodec import derived
-from openair.framing import binary_sizes
-from openair.message import Message
-from openair.server.store import StoreSpecError
+from openair.protocol.codec import decode_message, to_frame
+from openair.protocol.fastcodec import derived
+from openair.protocol.framing import binary_sizes
+from openair.protocol.message import Message
+from openair.server.core.store import StoreSpecError
 
 if TYPE_CHECKING:
-    from openair.server.config import ServerConfig, WhiteboardConfig
+    from openair.server.core.config import ServerConfig, WhiteboardConfig
 
 __all__ = ["ClusterSpec", "ClusterStore", "decode_copy", "encode_copy", "parse_spec", "subject"]
 

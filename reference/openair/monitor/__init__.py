@@ -15,7 +15,7 @@ from openair.monitor.core import Monitor, MonitorOptions
 from openair.monitor.http import HttpLimits
 
 if TYPE_CHECKING:
-    from openair.server.app import Server
+    from openair.server.aio.app import Server
 
 __all__ = ["HttpLimits", "Monitor", "MonitorOptions", "attach"]
 

@@ -20,15 +20,15 @@ import urllib.parse
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from openair.codec import decode_message, encode_message
-from openair.errors import OpenAIRError
-from openair.message import MAX_PRIORITY, MIN_PRIORITY, Message
 from openair.monitor import views
 from openair.monitor.http import EventStream, HttpError, Request, Response, error_response
 from openair.monitor.messages import MessageFilter
 from openair.monitor.sse import TOPICS
-from openair.times import AirTime
-from openair.types import validate_type
+from openair.protocol.codec import decode_message, encode_message
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.message import MAX_PRIORITY, MIN_PRIORITY, Message
+from openair.protocol.times import AirTime
+from openair.protocol.types import validate_type
 
 if TYPE_CHECKING:
     from openair.monitor.core import Monitor

@@ -31,7 +31,7 @@ from openair.monitor.sse import Broadcaster
 from openair.monitor.tap import RateMeter, Tap
 
 if TYPE_CHECKING:
-    from openair.server.app import Server
+    from openair.server.aio.app import Server
 
 __all__ = ["Monitor", "MonitorOptions"]
 

@@ -1,7 +1,7 @@
 """Messages as the monitor shows them: filters, one-line summaries and every slot of one message.
 
-The type filter is the trigger matcher itself (`openair.matching.matches`, OA-MATCH-8), so a
-pattern typed in the whiteboard view selects exactly what a trigger with that pattern would
+The type filter is the trigger matcher itself (`openair.protocol.matching.matches`, OA-MATCH-8), so
+a pattern typed in the whiteboard view selects exactly what a trigger with that pattern would
 wake on. The sender and content filters are globs where `*` is any run of characters and all
 else is literal (the retrieve `content` glob, OA-RET-8; for XML content the text of its
 elements, OA-RET-13).
@@ -12,14 +12,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from openair.contentmatch import content_glob, text_of
-from openair.errors import OpenAIRError
-from openair.matching import matches
-from openair.message import Message, Reference
 from openair.observing import Delivered
-from openair.times import AirTime
-from openair.types import validate_pattern
-from openair.wakeup import parse_wakeup
+from openair.protocol.contentmatch import content_glob, text_of
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.matching import matches
+from openair.protocol.message import Message, Reference
+from openair.protocol.times import AirTime
+from openair.protocol.types import validate_pattern
+from openair.protocol.wakeup import parse_wakeup
 
 __all__ = ["MessageFilter", "detail", "summary", "time_json"]
 

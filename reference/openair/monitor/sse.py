@@ -22,9 +22,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from openair.message import Message
 from openair.monitor.http import HttpConnection
 from openair.monitor.messages import MessageFilter, summary
+from openair.protocol.message import Message
 
 if TYPE_CHECKING:
     from openair.monitor.core import Monitor

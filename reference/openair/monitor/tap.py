@@ -22,8 +22,8 @@ from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
-from openair.message import Message
 from openair.observing import Acknowledged, Delivered, message_bytes
+from openair.protocol.message import Message
 
 __all__ = ["LATENCY_BOUNDS_US", "Event", "Histogram", "RateMeter", "Tap"]
 

@@ -11,10 +11,10 @@ from collections import Counter
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
-from openair.content import Phase, Registration, RetrieveSpec
-from openair.message import Message
 from openair.monitor.messages import MessageFilter, detail, summary
 from openair.monitor.tap import Event
+from openair.protocol.content import Phase, Registration, RetrieveSpec
+from openair.protocol.message import Message
 
 if TYPE_CHECKING:
     from openair.monitor.core import Monitor

@@ -17,7 +17,6 @@ from pathlib import Path
 
 import click
 
-from openair.address import parse_server
 from openair.ontology.history import (
     History,
     HistoryConnectError,
@@ -36,7 +35,8 @@ from openair.ontology.parse import OntologyError, encode_ontology, read_ontology
 from openair.ontology.paths import Paths
 from openair.ontology.site import build_context, write_site
 from openair.ontology.usage import Usage, merge, usage_from_config, usage_from_history
-from openair.server.config import ConfigError, load_config
+from openair.protocol.address import parse_server
+from openair.server.core.config import ConfigError, load_config
 
 __all__ = ["ontology"]
 

@@ -19,15 +19,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from openair.address import parse_server
 from openair.client.module import FailedReplyError, Module
-from openair.codec import decode_message
-from openair.content import RetrieveSpec
-from openair.errors import ConnectionClosedError, OpenAIRError
-from openair.framing import binary_sizes
-from openair.message import Message
-from openair.objects import parse_dictionary, read_message_collection
-from openair.xmlsafe import XmlLimits, parse_xml
+from openair.protocol.address import parse_server
+from openair.protocol.codec import decode_message
+from openair.protocol.content import RetrieveSpec
+from openair.protocol.errors import ConnectionClosedError, OpenAIRError
+from openair.protocol.framing import binary_sizes
+from openair.protocol.message import Message
+from openair.protocol.objects import parse_dictionary, read_message_collection
+from openair.protocol.xmlsafe import XmlLimits, parse_xml
 
 __all__ = [
     "DEFAULT_WHITEBOARDS",

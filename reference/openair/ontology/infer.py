@@ -15,14 +15,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from openair.errors import OpenAIRError
-from openair.matching import ascii_fold
-from openair.message import Message
 from openair.ontology.model import ContentSpec, Example, Kind, Link, Observed, Ontology, TypeNode
 from openair.ontology.parse import indent_xml
 from openair.ontology.usage import Observation, iso_time, usage_from_history
-from openair.server.config import name_problem
-from openair.xmlsafe import local_name, parse_fragment
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.matching import ascii_fold
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import local_name, parse_fragment
+from openair.server.core.config import name_problem
 
 __all__ = ["InferReport", "infer_ontology"]
 

@@ -28,11 +28,11 @@ import enum
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-from openair.matching import ascii_fold
 from openair.ontology.model import Kind, TypeEntry, TypeIndex
 from openair.ontology.relations import Difference, Relations
 from openair.ontology.usage import Source, Usage
-from openair.server.config import SYSTEM_COMPONENTS
+from openair.protocol.matching import ascii_fold
+from openair.server.core.config import SYSTEM_COMPONENTS
 
 __all__ = ["Finding", "Level", "lint", "nearest_names", "suggest"]
 

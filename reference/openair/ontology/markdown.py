@@ -16,13 +16,13 @@ import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-from openair.matching import matches, psyclone_matches
 from openair.ontology.lint import Level
 from openair.ontology.model import TypeEntry
 from openair.ontology.overview import module_names
 from openair.ontology.pages import DocContext, pretty_content
 from openair.ontology.relations import deviation, subtree_patterns
 from openair.ontology.usage import Source, iso_time
+from openair.protocol.matching import matches, psyclone_matches
 
 __all__ = ["write_markdown"]
 

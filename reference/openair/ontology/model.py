@@ -16,8 +16,8 @@ import enum
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-from openair.matching import ascii_fold, matches
-from openair.types import is_valid_type
+from openair.protocol.matching import ascii_fold, matches
+from openair.protocol.types import is_valid_type
 
 __all__ = [
     "ContentSpec",

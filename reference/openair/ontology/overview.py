@@ -17,7 +17,7 @@ from openair.ontology.model import Kind
 from openair.ontology.pages import DocContext
 from openair.ontology.templating import render
 from openair.ontology.usage import Source, StreamDecl
-from openair.server.config import SYSTEM_COMPONENTS
+from openair.server.core.config import SYSTEM_COMPONENTS
 
 __all__ = ["index_page", "module_names", "module_page"]
 

@@ -14,10 +14,6 @@ from dataclasses import dataclass
 
 from lxml import etree
 
-from openair.codec import encode_message
-from openair.errors import OpenAIRError
-from openair.matching import matches, psyclone_matches
-from openair.message import Message
 from openair.ontology.diagram import DiagramResult
 from openair.ontology.lint import Finding
 from openair.ontology.model import Example, TypeEntry, TypeIndex
@@ -26,7 +22,11 @@ from openair.ontology.paths import Paths
 from openair.ontology.relations import Relations, deviation, subtree_patterns
 from openair.ontology.templating import render
 from openair.ontology.usage import Source, iso_time
-from openair.xmlsafe import parse_xml
+from openair.protocol.codec import encode_message
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.matching import matches, psyclone_matches
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import parse_xml
 
 __all__ = ["DocContext", "pretty_content", "type_page"]
 

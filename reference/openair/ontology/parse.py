@@ -1,6 +1,6 @@
 """Read and write ontology files (schemas/ontology.xsd).
 
-`read_ontology` parses with the hardened parser (`openair.xmlsafe.parse_xml`: no DTD, no
+`read_ontology` parses with the hardened parser (`openair.protocol.xmlsafe.parse_xml`: no DTD, no
 entities, no network, OA-SEC-1/2), validates against `ontology.xsd`, then checks what the schema
 cannot say: sibling segments unique ignoring ASCII case (OA-MATCH-1), every full name a valid
 type within the OA-TYPE-4 limits, unique namespace prefixes, no children under a parameterised
@@ -20,8 +20,6 @@ from typing import Any
 
 from lxml import etree
 
-from openair.errors import OpenAIRError
-from openair.matching import ascii_fold
 from openair.ontology.model import (
     ContentSpec,
     Deprecation,
@@ -33,9 +31,11 @@ from openair.ontology.model import (
     Ontology,
     TypeNode,
 )
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.matching import ascii_fold
+from openair.protocol.types import validate_type
+from openair.protocol.xmlsafe import XmlLimits, parse_fragment, parse_xml
 from openair.resources import schema_path
-from openair.types import validate_type
-from openair.xmlsafe import XmlLimits, parse_fragment, parse_xml
 
 __all__ = [
     "FORMAT_VERSION",

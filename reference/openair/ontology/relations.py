@@ -4,17 +4,17 @@
 matcher, OA-MATCH-1..6, with OA-MATCH-8: triggers and retrieves alike), who posts it (from the
 psySpec, a history, and the ontology's own `<poster>` links), which streams carry it, and what a
 history observed. It also answers, for one pattern, where Psyclone 1.1.7 would decide otherwise
-(`openair.matching.psyclone_matches`, appendix A, DEV-1 to DEV-4).
+(`openair.protocol.matching.psyclone_matches`, appendix A, DEV-1 to DEV-4).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from openair.matching import ascii_fold, matches, psyclone_matches
 from openair.ontology.model import TypeEntry, TypeIndex
 from openair.ontology.usage import Observation, Posting, Source, StreamDecl, Subscription, Usage
-from openair.types import is_valid_type
+from openair.protocol.matching import ascii_fold, matches, psyclone_matches
+from openair.protocol.types import is_valid_type
 
 __all__ = [
     "Difference",

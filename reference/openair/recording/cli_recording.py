@@ -19,13 +19,13 @@ from pathlib import Path
 
 import click
 
-from openair.address import parse_server
 from openair.client.cli_client import CliModule, _run
-from openair.errors import OpenAIRError
+from openair.protocol.address import parse_server
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.types import validate_pattern
 from openair.recording.fileformat import MessageRecord, Record, RecordingReader
 from openair.recording.recorder import Recorder, RecordOptions
 from openair.recording.replay import Replayer, ReplayOptions, plan
-from openair.types import validate_pattern
 
 __all__ = ["load_recording", "monitor", "record", "replay"]
 

@@ -23,9 +23,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
-from openair.codec import decode_message, encode_message
-from openair.datasample import DataSample, decode_chunk, encode_chunk
-from openair.errors import (
+from openair.protocol.codec import decode_message, encode_message
+from openair.protocol.datasample import DataSample, decode_chunk, encode_chunk
+from openair.protocol.errors import (
     BinarySizesInvalidError,
     FrameTooLargeError,
     FrameTruncatedError,
@@ -33,7 +33,7 @@ from openair.errors import (
     MessageInvalidError,
     OpenAIRError,
 )
-from openair.message import Message
+from openair.protocol.message import Message
 
 __all__ = [
     "FORMAT_VERSION",

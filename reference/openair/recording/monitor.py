@@ -17,10 +17,10 @@ import urllib.parse
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from openair.errors import OpenAIRError
-from openair.message import Message
 from openair.monitor.http import HttpConnection, HttpError, HttpLimits, Request, Response
 from openair.monitor.messages import MessageFilter, detail, summary
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.message import Message
 from openair.recording.fileformat import Header, MessageRecord, Record, SampleRecord
 
 __all__ = ["RecordingMonitor"]

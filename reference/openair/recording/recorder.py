@@ -19,10 +19,10 @@ from pathlib import Path
 
 from openair.client.module import Module, WakeupEvent
 from openair.client.stream_wire import ReceivedSample
-from openair.content import StreamRef, Trigger
-from openair.errors import OpenAIRError
-from openair.message import Message
-from openair.objects import parse_dictionary
+from openair.protocol.content import StreamRef, Trigger
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.message import Message
+from openair.protocol.objects import parse_dictionary
 from openair.recording.fileformat import Header, RecordingWriter
 
 __all__ = ["RecordOptions", "Recorder", "whiteboard_names"]

@@ -20,10 +20,10 @@ from collections.abc import Awaitable, Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
 from openair.client.module import FailedReplyError, Module
-from openair.datasample import BUILTIN_ID, BUILTIN_SEQ, BUILTIN_TIMESTAMP, DataSample
-from openair.errors import OpenAIRError
-from openair.matching import matches
-from openair.message import Message, new_id
+from openair.protocol.datasample import BUILTIN_ID, BUILTIN_SEQ, BUILTIN_TIMESTAMP, DataSample
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.matching import matches
+from openair.protocol.message import Message, new_id
 from openair.recording.fileformat import Header, MessageRecord, Record, SampleRecord
 
 __all__ = [

@@ -11,7 +11,7 @@ from typing import Any, TypeVar
 
 import click
 
-from openair.server.config import ServerLimits
+from openair.server.core.config import ServerLimits
 
 __all__ = ["BUDGETS", "budget_options"]
 

@@ -16,12 +16,13 @@ from typing import Any
 
 import click
 
-from openair.auth import SecretsError, load_secrets
-from openair.server.app import Server, ServerOptions, start_server
-from openair.server.budgets import return_large_buffers
+from openair.protocol.auth import SecretsError
+from openair.secretsfile import load_secrets
+from openair.server.aio.app import Server, ServerOptions, start_server
+from openair.server.aio.budgets import return_large_buffers
 from openair.server.cli_budgets import budget_options
-from openair.server.config import ConfigError, ServerLimits
-from openair.server.store import StoreSpecError
+from openair.server.core.config import ConfigError, ServerLimits
+from openair.server.core.store import StoreSpecError
 
 __all__ = ["serve"]
 

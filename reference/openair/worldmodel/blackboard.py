@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from openair.errors import ApiMisuseError
+from openair.protocol.errors import ApiMisuseError
 from openair.worldmodel.packets import Context, Packet, Value
 
 __all__ = [

@@ -24,7 +24,7 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from openair.errors import ContentInvalidError
+from openair.protocol.errors import ContentInvalidError
 from openair.worldmodel.packets import Packet, Ref, Value, value_kind
 
 __all__ = [

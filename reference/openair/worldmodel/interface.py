@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from openair.errors import ApiMisuseError, ContentInvalidError
+from openair.protocol.errors import ApiMisuseError, ContentInvalidError
 from openair.worldmodel.blackboard import Blackboard, Change, ClassDef
 from openair.worldmodel.packets import Context, Packet
 from openair.worldmodel.plans import Ack, Fire, Plan, PlanEngine, PlanEvent, ReportAction
@@ -257,7 +257,7 @@ class WorldModelCore:
         return self.add_plan(plan)
 
     def _refuse(self, content: str, reason: str) -> list[Output]:
-        from openair.objects import parse_root  # only needed for this rare path
+        from openair.protocol.objects import parse_root  # only needed for this rare path
 
         try:
             root = parse_root(content, ("wmplan",), ContentInvalidError)

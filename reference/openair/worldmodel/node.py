@@ -18,8 +18,8 @@ from collections.abc import Awaitable, Callable, Iterable, Mapping
 from types import TracebackType
 
 from openair.client import Module, WakeupEvent
-from openair.content import RetrieveSpec, Trigger
-from openair.errors import OpenAIRError
+from openair.protocol.content import RetrieveSpec, Trigger
+from openair.protocol.errors import OpenAIRError
 from openair.worldmodel.blackboard import Blackboard, ClassDef
 from openair.worldmodel.interface import LOST_PREFIX, Outgoing, ReportFilter, WorldModelCore
 from openair.worldmodel.packets import Context, Value

@@ -18,7 +18,7 @@ import enum
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from openair.errors import ApiMisuseError
+from openair.protocol.errors import ApiMisuseError
 from openair.worldmodel.conditions import Condition, Lookup, evaluate, fields_of
 
 __all__ = [

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 from lxml import etree
 
-from openair.errors import ContentInvalidError
-from openair.objects import element, elements, inner_text, parse_root, serialize
+from openair.protocol.errors import ContentInvalidError
+from openair.protocol.objects import element, elements, inner_text, parse_root, serialize
 from openair.worldmodel.blackboard import ClassDef, FunctionRef
 from openair.worldmodel.conditions import parse_condition, to_text
 from openair.worldmodel.packets import Context, Packet, Ref, Value, canonical_value, value_kind

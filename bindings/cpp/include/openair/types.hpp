@@ -38,7 +38,7 @@ std::string_view validate_pattern(std::string_view p);
 [[nodiscard]] std::string ascii_fold(std::string_view text);
 
 /// Whether `pattern` matches the message type `type` (OA-MATCH-1..6), exactly as the reference
-/// `openair.matching.matches()`: ASCII case ignored; `*` any run of characters, dots included;
+/// `openair.protocol.matching.matches()`: ASCII case ignored; `*` any run of characters, dots included;
 /// no prefix matching; a pattern ending in `.*` also matches the type equal to the pattern
 /// without that `.*` (OA-MATCH-4). Linear in the input; inputs are assumed valid.
 [[nodiscard]] bool matches(std::string_view pattern, std::string_view type);

@@ -1,0 +1,378 @@
+"""The `AIR.Instruct.Wakeup` delivery (spec 8.7) and the phase update (spec 8.8).
+
+`build_wakeup` makes the message a whiteboard sends to a woken module; with no trigger message
+it makes the phase update that `ContextsAndPhases` sends. `parse_wakeup` reads both, whether
+this kit or Psyclone 1.1.7 wrote them (Psyclone's stored copies put `netprotocol` and `wbid`
+before `postedTime`; its PhaseSpec carries `pid`, `currentcontexts` and `activationtime`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from lxml import etree
+
+from openair.protocol._errors_base import OpenAIRError
+from openair.protocol.attachments import ChunkCursor, attach_collection, chunks_of, prefix_within
+from openair.protocol.codec import message_from_element, message_to_element
+from openair.protocol.content import Phase
+from openair.protocol.errors import ContentInvalidError, MessageInvalidError
+from openair.protocol.fastcodec import (
+    derived,
+    fast_encode_str,
+    message_with,
+    text_slot_xml,
+    time_xml,
+)
+from openair.protocol.framing import Frame, FrameTag, encode_frame
+from openair.protocol.message import Message, Slot
+from openair.protocol.objects import (
+    attr,
+    element,
+    elements,
+    message_collection_element,
+    parse_content,
+    read_message_collection,
+    serialize,
+    single_child,
+)
+from openair.protocol.registration import phase_spec_element, read_phase
+from openair.protocol.times import AirTime
+from openair.protocol.xmlsafe import local_name
+
+__all__ = [
+    "WAKEUP_TYPE",
+    "EncodedCopies",
+    "Wakeup",
+    "assemble_wakeup",
+    "attach_wakeup",
+    "build_wakeup",
+    "collection_xml",
+    "fit_attachments",
+    "parse_wakeup",
+    "phase_spec_xml",
+    "stored_xml",
+]
+
+WAKEUP_TYPE = "AIR.Instruct.Wakeup"
+TRIGGER_MESSAGE = "TriggerMessage"
+RETRIEVED_MESSAGES = "RetrievedMessages"
+PHASE_SPEC = "PhaseSpec"
+OMITTED = "omitted"  # the slot of OA-WAKE-11
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Wakeup:
+    """A wakeup taken apart: the stored trigger message, the retrieved messages and the phase.
+
+    `trigger` is None for a phase update (OA-WAKE-8); `phase` is None when the wakeup carries
+    no PhaseSpec ("out of context", spec 8.8). `lasttrigger` is the pattern that fired, empty
+    for a wakeup due only to `cc` (OA-WAKE-4). Messages carry their attachments in `binary`
+    (OA-WAKE-10); `omitted` counts the retrieved messages the server left out so that the
+    attachments fit its frame limit (the `omitted` slot, OA-WAKE-11).
+    """
+
+    trigger: Message | None
+    retrieved: tuple[Message, ...] = ()
+    phase: Phase | None = None
+    lasttrigger: str = ""
+    omitted: int = 0
+
+
+def _named_object(name: str, inner: etree._Element) -> etree._Element:
+    obj = element("object", (("name", name),))
+    obj.append(inner)
+    return obj
+
+
+def build_wakeup(
+    *,
+    stored: Message | None,
+    whiteboard: str,
+    module: str,
+    retrieved: Sequence[Message] = (),
+    phase: Phase | None = None,
+    lasttrigger: str = "",
+) -> Message:
+    """Build the wakeup of spec 8.7, or a phase update (spec 8.8) when `stored` is None.
+
+    A wakeup goes from the whiteboard to the module with `stored` = the whiteboard (OA-WAKE-1);
+    its objectdictionary holds TriggerMessage (the stored copy, OA-WAKE-2), RetrievedMessages
+    (OA-WAKE-3) and PhaseSpec (OA-WAKE-4; `phase` None is the empty default phase), in that
+    order. A phase update comes from `whiteboard` (pass `ContextsAndPhases`), has an empty
+    `stored` as Psyclone's do, and holds only PhaseSpec, or nothing when `phase` is None
+    (OA-WAKE-9, OA-REG-15). `postedTime` is left for the sender to stamp (OA-TIME-2).
+    """
+    root = element("objectdictionary")
+    if stored is not None:
+        root.append(_named_object(TRIGGER_MESSAGE, message_to_element(stored)))
+        root.append(_named_object(RETRIEVED_MESSAGES, message_collection_element(retrieved)))
+    if stored is not None or phase is not None:
+        spec = phase_spec_element(phase, module=module, lasttrigger=lasttrigger)
+        root.append(_named_object(PHASE_SPEC, spec))
+    return Message(
+        type=WAKEUP_TYPE,
+        sender=whiteboard,
+        to=module,
+        stored=whiteboard if stored is not None else "",
+        language="xml",
+        content=serialize(root),
+        content_is_xml=True,
+    )
+
+
+# --- the fast writer: the same content and bytes as build_wakeup, spliced from cached parts ---
+
+_EMPTY_COLLECTION = "<objectcollection/>"  # what lxml writes for an empty collection
+_TRIGGER_OPEN = f'<objectdictionary><object name="{TRIGGER_MESSAGE}">'
+_RETRIEVED_OPEN = f'</object><object name="{RETRIEVED_MESSAGES}">'
+_PHASE_OPEN = f'</object><object name="{PHASE_SPEC}">'
+_CLOSE = "</object></objectdictionary>"
+
+
+def stored_xml(msg: Message) -> str:
+    """Return `msg` as XML text exactly as it appears inside a wakeup (canonical form)."""
+    fast = fast_encode_str(msg)
+    return fast if fast is not None else serialize(message_to_element(msg))
+
+
+class EncodedCopies:
+    """Remember the XML of recently encoded stored copies, by identity (bounded).
+
+    A stored copy is immutable, so its XML never changes; a registration that retrieves the
+    latest messages finds the copies encoded when they were posted.
+    """
+
+    def __init__(self, size: int = 1024, max_bytes: int = 16 << 20) -> None:
+        self._size = size
+        self._max_bytes = max_bytes  # XML kept at most (issue #19: large posts)
+        self._bytes = 0
+        self._xml: dict[int, tuple[Message, str]] = {}
+
+    def xml(self, msg: Message) -> str:
+        """Return `stored_xml(msg)`, encoding it only once while it stays in the cache."""
+        hit = self._xml.get(id(msg))
+        if hit is not None and hit[0] is msg:
+            return hit[1]
+        text = stored_xml(msg)
+        # A copy is kept alive by the cache too: count it with its XML.
+        cost = 2 * len(text)
+        if cost > self._max_bytes:
+            return text  # never cached: it would push everything else out
+        while self._xml and (len(self._xml) >= self._size or self._bytes + cost > self._max_bytes):
+            oldest = next(iter(self._xml))
+            self._bytes -= 2 * len(self._xml.pop(oldest)[1])  # the oldest entry
+        self._xml[id(msg)] = (msg, text)  # the reference keeps id(msg) from being reused
+        self._bytes += cost
+        return text
+
+
+def collection_xml(msgs: Sequence[Message], copies: EncodedCopies | None = None) -> str:
+    """Return the RetrievedMessages `<objectcollection>` of `msgs` (OA-WAKE-3)."""
+    if not msgs:
+        return _EMPTY_COLLECTION
+    encode = copies.xml if copies is not None else stored_xml
+    inner = "".join(f"<object>{encode(m)}</object>" for m in msgs)
+    return f"<objectcollection>{inner}</objectcollection>"
+
+
+def phase_spec_xml(phase: Phase | None, *, module: str, lasttrigger: str) -> str:
+    """Return the PhaseSpec `<phase>` of a wakeup (OA-WAKE-4); callers may cache it."""
+    return serialize(phase_spec_element(phase, module=module, lasttrigger=lasttrigger))
+
+
+def assemble_wakeup(
+    *,
+    trigger_xml: str,
+    retrieved_xml: str,
+    phase_xml: str,
+    whiteboard: str,
+    module: str,
+    id: str,
+    posted: AirTime,
+) -> tuple[Message, bytes | None]:
+    """Build the wakeup `build_wakeup` would (posted at `posted`) and its Message frame bytes.
+
+    The parts are the outputs of `stored_xml`, `collection_xml` and `phase_spec_xml`, so the
+    content is the text lxml would write; the frame is None when only the lxml writer can say
+    whether the message can be written (then the sender encodes it as usual).
+    """
+    content = (
+        f"{_TRIGGER_OPEN}{trigger_xml}{_RETRIEVED_OPEN}{retrieved_xml}"
+        f"{_PHASE_OPEN}{phase_xml}{_CLOSE}"
+    )
+    msg = message_with(
+        type=WAKEUP_TYPE,
+        id=id,
+        sender=whiteboard,
+        to=module,
+        stored=whiteboard,
+        posted=posted,
+        language="xml",
+        content=content,
+        content_is_xml=True,
+    )
+    envelope = _envelope(whiteboard, module)
+    id_xml = text_slot_xml("id", id)
+    if envelope is None or id_xml is None:
+        return msg, None  # only the lxml writer can say what is wrong
+    head, middle = envelope
+    text = f"{head}{id_xml}{middle}{time_xml('postedTime', posted)}{_CONTENT_OPEN}{content}{_END}"
+    return msg, frame_bytes(text.encode("utf-8"))
+
+
+_CONTENT_OPEN = '<content language="xml">'
+_END = "</content></message>"
+_ENVELOPES_MAX = 4096
+_envelopes: dict[tuple[str, str], tuple[str, str] | None] = {}
+
+
+def _envelope(whiteboard: str, module: str) -> tuple[str, str] | None:
+    """Return the text of a wakeup around its id, and between id and postedTime (cached).
+
+    Cut from what the canonical writer makes of a wakeup with an empty id and no time, so the
+    spliced wakeup is the written one; None when the writer would leave it to lxml.
+    """
+    key = (whiteboard, module)
+    if key in _envelopes:
+        return _envelopes[key]
+    probe = message_with(
+        type=WAKEUP_TYPE,
+        id="",
+        sender=whiteboard,
+        to=module,
+        stored=whiteboard,
+        language="xml",
+        content="<x/>",
+        content_is_xml=True,
+    )
+    text = fast_encode_str(probe, xml_content=True)
+    envelope = None
+    if text is not None and text.endswith(f"{_CONTENT_OPEN}<x/>{_END}"):
+        head, _, rest = text.partition("<id/>")
+        envelope = head, rest[: -len(f"{_CONTENT_OPEN}<x/>{_END}")]
+    if len(_envelopes) >= _ENVELOPES_MAX:
+        _envelopes.clear()
+    _envelopes[key] = envelope
+    return envelope
+
+
+_MESSAGE_HEADER = encode_frame(Frame(tag=FrameTag.MESSAGE))  # tag and a zero length
+
+
+def frame_bytes(xml: bytes) -> bytes:
+    """Return the Message frame of `xml` (OA-FRAME-1, OA-FRAME-3), as `encode_frame` would."""
+    return _MESSAGE_HEADER[:8] + len(xml).to_bytes(4, "little") + xml
+
+
+def _objects(root: etree._Element) -> dict[str, etree._Element | None]:
+    """Return the objects of an objectdictionary by name; an empty object maps to None."""
+    found: dict[str, etree._Element | None] = {}
+    for obj in elements(root):
+        if local_name(obj) != "object":
+            raise ContentInvalidError(f"<objectdictionary> holds <{local_name(obj)}>")
+        name = attr(obj, "name")
+        if name is None:
+            raise ContentInvalidError("wakeup object without a name")
+        if name in found:
+            raise ContentInvalidError(f"wakeup object {name!r} appears twice")
+        found[name] = single_child(obj, name, ContentInvalidError) if elements(obj) else None
+    return found
+
+
+def _trigger(el: etree._Element | None) -> Message | None:
+    if el is None:
+        return None
+    if local_name(el) != "message":
+        raise ContentInvalidError(f"{TRIGGER_MESSAGE} holds <{local_name(el)}>, not a message")
+    try:
+        return message_from_element(el)
+    except MessageInvalidError as exc:
+        raise ContentInvalidError(f"{TRIGGER_MESSAGE}: {exc.detail}") from None
+
+
+def _phase(el: etree._Element | None) -> tuple[Phase | None, str]:
+    if el is None:
+        return None, ""
+    if local_name(el) != "phase":
+        raise ContentInvalidError(f"{PHASE_SPEC} holds <{local_name(el)}>, not a phase")
+    try:
+        return read_phase(el), attr(el, "lasttrigger") or ""
+    except OpenAIRError as exc:
+        raise ContentInvalidError(f"{PHASE_SPEC}: {exc.detail}") from None
+
+
+def parse_wakeup(msg: Message) -> Wakeup:
+    """Take an `AIR.Instruct.Wakeup` apart (spec 8.7, 8.8).
+
+    Object names are matched exactly, the objects in any order; a missing TriggerMessage is a
+    phase update (OA-WAKE-8), and empty content a phase update without a phase. Content that
+    is not an objectdictionary, a TriggerMessage that is not a message, and the like are
+    CONTENT_INVALID.
+    """
+    if msg.type != WAKEUP_TYPE:
+        raise ContentInvalidError(f"{msg.type!r} is not {WAKEUP_TYPE}")
+    roots = parse_content(msg.content, ContentInvalidError)
+    if not roots:
+        return Wakeup(trigger=None)
+    if len(roots) != 1 or local_name(roots[0]) != "objectdictionary":
+        found = ", ".join(f"<{local_name(r)}>" for r in roots)
+        raise ContentInvalidError(f"wakeup content must be one <objectdictionary>, found {found}")
+    objects = _objects(roots[0])
+    retrieved_el = objects.get(RETRIEVED_MESSAGES)
+    trigger_el = objects.get(TRIGGER_MESSAGE)
+    phase, lasttrigger = _phase(objects.get(PHASE_SPEC))
+    trigger = _trigger(trigger_el)
+    retrieved = () if retrieved_el is None else read_message_collection(retrieved_el)
+    # OA-WAKE-10, OA-MSG-21: the frame's chunks are the trigger's, then the retrieved ones'.
+    cursor = ChunkCursor(msg.binary)
+    if trigger is not None and trigger_el is not None:
+        trigger = cursor.attach(trigger, trigger_el)
+    if retrieved_el is not None:
+        retrieved = attach_collection(retrieved, retrieved_el, cursor)
+    cursor.finish()
+    return Wakeup(
+        trigger=trigger,
+        retrieved=retrieved,
+        phase=phase,
+        lasttrigger=lasttrigger,
+        omitted=_omitted(msg),
+    )
+
+
+def _omitted(msg: Message) -> int:
+    """Read the `omitted` slot of a wakeup (OA-WAKE-11); absent means 0."""
+    slot = msg.extra(OMITTED)
+    if slot is None:
+        return 0
+    text = slot.value.strip()
+    if not text.isascii() or not text.isdigit():
+        raise ContentInvalidError(f"omitted slot {text[:40]!r} is not a count")
+    return int(text)
+
+
+def fit_attachments(
+    stored: Message, retrieved: Sequence[Message], max_binary: int
+) -> tuple[Sequence[Message], int]:
+    """Return the retrieved messages whose attachments fit a wakeup, and how many were left out.
+
+    The trigger message's chunks always go (a post fits the same limit); retrieved messages
+    are left out from the end of the collection until the total fits `max_binary`
+    (OA-WAKE-11).
+    """
+    budget = max_binary - sum(len(chunk) for chunk in stored.binary)
+    kept = prefix_within(retrieved, budget)
+    return retrieved[:kept], len(retrieved) - kept
+
+
+def attach_wakeup(
+    wakeup: Message, stored: Message, retrieved: Sequence[Message], omitted: int
+) -> Message:
+    """Give a wakeup the chunks of its trigger and retrieved messages (OA-WAKE-10, OA-MSG-21).
+
+    `omitted` > 0 adds the `omitted` slot (OA-WAKE-11).
+    """
+    chunks = chunks_of((stored, *retrieved))
+    extras = (*wakeup.extras, Slot(name=OMITTED, value=str(omitted))) if omitted else wakeup.extras
+    return derived(wakeup, binary=chunks, extras=extras)

@@ -1,0 +1,92 @@
+"""The asyncio side of the server's budgets (issue #19): accept errors, off-loop worker, buffers.
+
+`quiet_accept_errors` turns asyncio's traceback per failed accept (EMFILE, ENFILE: out of file
+descriptors) into one log line per interval; asyncio already waits a second before it accepts
+again. `off_loop_executor` is the one worker thread for large requests and replies;
+`return_large_buffers` sets glibc's mmap threshold. The counts are `openair.server.core.budgets`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import errno
+import sys
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+
+from openair.server.core.budgets import RateLimitedLog
+
+__all__ = ["off_loop_executor", "quiet_accept_errors", "return_large_buffers"]
+
+_FD_ERRNOS = frozenset({errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM})
+
+
+def quiet_accept_errors(
+    loop: asyncio.AbstractEventLoop, clock: Callable[[], float]
+) -> RateLimitedLog:
+    """Log failed accepts for lack of descriptors once per interval, not as a traceback each.
+
+    asyncio reports them through the loop's exception handler ("socket.accept() out of system
+    resource") and retries after a second; other reports go to the handler in place before.
+    """
+    previous = loop.get_exception_handler()
+    note = RateLimitedLog("accept_failed")
+
+    def handler(lp: asyncio.AbstractEventLoop, context: dict[str, object]) -> None:
+        exc = context.get("exception")
+        if isinstance(exc, OSError) and exc.errno in _FD_ERRNOS:
+            note.note(clock(), f"errno={errno.errorcode.get(exc.errno or 0, '?')}")
+            return
+        if previous is not None:
+            previous(lp, context)
+        else:
+            lp.default_exception_handler(context)
+
+    loop.set_exception_handler(handler)
+    return note
+
+
+_M_TRIM_THRESHOLD = -1  # glibc mallopt parameters (malloc.h)
+_M_MMAP_THRESHOLD = -3
+_MMAP_FROM = 256 * 1024
+
+
+def return_large_buffers() -> bool:
+    """Make glibc give large buffers back to the system when they are freed (issue #19).
+
+    glibc raises its mmap threshold each time a large block is freed, after which frames and
+    contents of a megabyte come from the heap and the heap's top cannot shrink past the live
+    blocks above them: a burst of large posts kept the server's RSS high long after it was
+    gone. A fixed threshold serves every buffer of 256 KiB or more by mmap, unmapped on free.
+    Returns False where this is not glibc (nothing changes).
+    """
+    try:
+        import ctypes  # only here: the rest of the server has no use for it
+
+        libc = ctypes.CDLL("libc.so.6")
+        ok = int(libc.mallopt(_M_MMAP_THRESHOLD, _MMAP_FROM)) == 1
+        return ok and int(libc.mallopt(_M_TRIM_THRESHOLD, 4 * _MMAP_FROM)) == 1
+    except (OSError, AttributeError):
+        return False
+
+
+_OFF_LOOP: list[ThreadPoolExecutor] = []
+_SWITCH_S = 0.0005
+
+
+def off_loop_executor() -> ThreadPoolExecutor:
+    """The one worker thread that decodes large requests and writes large replies (issue #19).
+
+    One, not one per core: the writing holds the interpreter lock most of the time, and the
+    event loop waits for that lock behind every thread that wants it (up to the 5 ms switch
+    interval each), so each more worker lengthens every other client's turn; one also bounds
+    the memory of the large requests and replies in progress to one at a time.
+    """
+    if not _OFF_LOOP:
+        # The loop waits for the lock at most this long after asking (5 ms by default): the
+        # worker's share of a second barely changes, every other client's wait falls.
+        sys.setswitchinterval(_SWITCH_S)
+        # Not at a lower scheduling priority: a worker preempted while it holds the lock would
+        # keep the loop waiting for as long as the system leaves it off the processor.
+        _OFF_LOOP.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="openair-large"))
+    return _OFF_LOOP[0]

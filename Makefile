@@ -44,13 +44,13 @@ check-generated: $(STAMP)
 	$(PY) tools/gen_session_vectors.py --check
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check reference conformance tests tools bench examples
-	$(VENV)/bin/ruff format --check reference conformance tests tools bench examples
+	$(VENV)/bin/ruff check reference apps conformance tests tools bench examples
+	$(VENV)/bin/ruff format --check reference apps conformance tests tools bench examples
 
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
-	MYPYPATH=reference:conformance:examples/worldmodel $(VENV)/bin/mypy --strict examples/worldmodel
-	MYPYPATH=reference:conformance:examples/skundar/python $(VENV)/bin/mypy --strict examples/skundar/python
+	MYPYPATH=reference:apps:conformance:examples/worldmodel $(VENV)/bin/mypy --strict examples/worldmodel
+	MYPYPATH=reference:apps:conformance:examples/skundar/python $(VENV)/bin/mypy --strict examples/skundar/python
 
 ## Install headless Chromium, its driver and Graphviz when missing (browser tests, diagrams).
 deps-browser:

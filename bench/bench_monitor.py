@@ -31,11 +31,11 @@ from multiprocessing.synchronize import Event
 
 from bench import Result, per_call
 from bench.bench_server import _CTX, Flow, _flow, _pin_load, _process, _server_argv
-from openair.monitor import Monitor
-from openair.monitor.messages import MessageFilter
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
 from openair.server.aio.app import ServerOptions, start_server
+from openair_monitor import Monitor
+from openair_monitor.messages import MessageFilter
 
 BENCH = "monitor"
 _COUNT = int(os.environ.get("BENCH_MONITOR_COUNT", "20000"))

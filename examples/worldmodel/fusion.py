@@ -6,7 +6,7 @@ import asyncio
 
 from wm_common import FUSING_OBSTACLE, ROBOT, WHITEBOARD, arguments, locate
 
-from openair.worldmodel.node import WorldModelNode
+from openair_worldmodel.node import WorldModelNode
 
 
 async def run(host: str, port: int, stop: asyncio.Event | None = None) -> None:

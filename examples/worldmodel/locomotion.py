@@ -6,8 +6,8 @@ import asyncio
 
 from wm_common import MEASURING_OBSTACLE, POSE, ROBOT, VEHICLE, WHITEBOARD, arguments, clearance
 
-from openair.worldmodel import Context, Fire
-from openair.worldmodel.node import WorldModelNode
+from openair_worldmodel import Context, Fire
+from openair_worldmodel.node import WorldModelNode
 
 
 async def run(host: str, port: int, stop: asyncio.Event | None = None) -> None:

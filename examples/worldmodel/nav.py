@@ -6,8 +6,8 @@ import asyncio
 
 from wm_common import POSE, ROBOT, STEP, VEHICLE, WHITEBOARD, arguments
 
-from openair.worldmodel import ClassDef, Context, Packet
-from openair.worldmodel.node import WorldModelNode
+from openair_worldmodel import ClassDef, Context, Packet
+from openair_worldmodel.node import WorldModelNode
 
 POSE_CLASS = ClassDef(
     name="Pose",

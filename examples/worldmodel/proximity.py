@@ -17,8 +17,8 @@ from wm_common import (
     arguments,
 )
 
-from openair.worldmodel import Context
-from openair.worldmodel.node import WorldModelNode
+from openair_worldmodel import Context
+from openair_worldmodel.node import WorldModelNode
 
 
 async def run(host: str, port: int) -> None:

@@ -14,8 +14,8 @@ from pathlib import Path
 
 from wm_common import OBSTACLE, PLAN, POSE, ROBOT, STOP_CLEARANCE, WHITEBOARD
 
-from openair.worldmodel import ControlAction, Plan, parse_condition
-from openair.worldmodel.node import WorldModelNode
+from openair_worldmodel import ControlAction, Plan, parse_condition
+from openair_worldmodel.node import WorldModelNode
 
 HERE = Path(__file__).resolve().parent
 MODULES = ("locomotion", "fusion", "nav", "proximity")

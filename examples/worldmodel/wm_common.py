@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from openair.worldmodel import Blackboard, ClassDef, FunctionRef, Packet, WMObject
+from openair_worldmodel import Blackboard, ClassDef, FunctionRef, Packet, WMObject
 
 ROBOT = "R1"
 WHITEBOARD = "WB1"

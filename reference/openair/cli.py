@@ -5,9 +5,10 @@ Commands live beside the code they wrap: the client commands in ``openair.client
 imported when the command runs (or when ``--help`` lists it), so ``openair --version`` imports
 nothing else and a command whose optional dependency is missing says which extra to install
 instead of failing with a traceback. Commands of other installed packages (the conformance
-suite's ``conform``, ``conform-client``, ``conform-worldmodel``) are found through the entry point
-group ``openair.commands`` (pyproject.toml): the reference package never imports the suite that
-judges it.
+suite's ``conform``, ``conform-client``, ``conform-worldmodel``; the applications beside the core:
+``ontology``, ``record``, ``replay``, ``monitor``) are found through the entry point group
+``openair.commands`` (pyproject.toml): the reference package never imports the suite that judges
+it, nor the applications built on it.
 """
 
 from __future__ import annotations
@@ -27,11 +28,7 @@ _COMMANDS = {
     "watch": "openair.client.cli_client:watch",
     "retrieve": "openair.client.cli_client:retrieve",
     "ping": "openair.client.cli_client:ping",
-    "ontology": "openair.ontology.cli_ontology:ontology",
     "stream": "openair.client.cli_stream:stream",
-    "record": "openair.recording.cli_recording:record",
-    "replay": "openair.recording.cli_recording:replay",
-    "monitor": "openair.recording.cli_recording:monitor",
 }
 
 #: The entry point group other packages declare their `openair` commands in.
@@ -46,7 +43,13 @@ def _targets() -> dict[str, str]:
 
 
 #: Optional top-level packages -> the extra of openair-kit that installs them (pyproject.toml).
-OPTIONAL = {"hypothesis": "fuzz", "xmlschema": "worldmodel", "selenium": "browser"}
+OPTIONAL = {
+    "hypothesis": "fuzz",
+    "xmlschema": "worldmodel",
+    "selenium": "browser",
+    "h11": "monitor",  # the web monitor's HTTP (`openair monitor FILE`, `openair serve`)
+    "graphviz": "ontology",  # `openair ontology` diagrams
+}
 
 #: Exit code of a command whose optional dependency is not installed (a usage error).
 EXIT_MISSING = 2

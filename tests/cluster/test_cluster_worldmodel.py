@@ -13,8 +13,8 @@ import contextlib
 import pytest
 from netcluster import Cluster, run_in
 
-from openair.worldmodel import Context
-from openair.worldmodel.node import WorldModelNode
+from openair_worldmodel import Context
+from openair_worldmodel.node import WorldModelNode
 
 pytestmark = pytest.mark.slow
 BOUND = 20.0

@@ -16,7 +16,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Where the importable packages live (pyproject.toml, tool.setuptools.packages.find).
-SOURCE_ROOTS = (ROOT / "reference", ROOT / "conformance")
+SOURCE_ROOTS = (ROOT / "reference", ROOT / "apps", ROOT / "conformance")
 
 
 #: "package.module:attribute", an import by name.

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from openair.monitor import Monitor, MonitorOptions, attach
 from openair.server.aio.app import Server, ServerOptions, start_server
+from openair_monitor import Monitor, MonitorOptions, attach
 
 BOUND = 15.0  # seconds: the most any single wait may take
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "monitor"  # screenshots

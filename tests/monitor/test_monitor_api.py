@@ -8,11 +8,11 @@ from dataclasses import dataclass, field
 from monitor_helpers import BOUND, get, post_json, run, serving
 
 from openair.client import Module
-from openair.monitor import MonitorOptions
-from openair.monitor.tap import RateMeter
-from openair.monitor.views import stream_infos
 from openair.protocol.matching import matches
 from openair.server.aio.app import Server
+from openair_monitor import MonitorOptions
+from openair_monitor.tap import RateMeter
+from openair_monitor.views import stream_infos
 
 TYPES = ["Test", "Test.A", "Test.A.B", "Other.Test", "Input.Perc", "Test.Needle"]
 

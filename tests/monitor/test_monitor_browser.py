@@ -17,10 +17,10 @@ import pytest
 from monitor_helpers import ARTIFACTS
 
 from openair.client import Module
-from openair.monitor import Monitor, MonitorOptions, attach
 from openair.protocol.message import Message
 from openair.server.aio.app import Server, ServerOptions, start_server
 from openair.server.core.queues import QueueItem
+from openair_monitor import Monitor, MonitorOptions, attach
 
 T = TypeVar("T")
 WAIT = 15.0  # seconds: the most a page may take to show what a step expects

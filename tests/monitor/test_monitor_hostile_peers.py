@@ -6,8 +6,8 @@ import asyncio
 
 from monitor_helpers import HttpClient, get, run, serving
 
-from openair.monitor import HttpLimits, MonitorOptions
-from openair.monitor.hostcheck import allowed_names, host_allowed, origin_allowed
+from openair_monitor import HttpLimits, MonitorOptions
+from openair_monitor.hostcheck import allowed_names, host_allowed, origin_allowed
 
 
 def test_only_allowed_names_and_ip_literals_pass_the_host_check() -> None:

@@ -7,7 +7,7 @@ import asyncio
 from monitor_helpers import BOUND, HttpClient, get, run, serving
 
 from openair.client import Module
-from openair.monitor import HttpLimits, MonitorOptions
+from openair_monitor import HttpLimits, MonitorOptions
 
 
 def test_pages_and_static_files_are_served_with_a_strict_policy() -> None:

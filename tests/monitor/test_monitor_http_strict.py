@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from openair.monitor.http import HttpConnection, HttpLimits, Request, Response
+from openair_monitor.http import HttpConnection, HttpLimits, Request, Response
 
 GET = b"GET /api/overview?x=1 HTTP/1.1\r\nHost: h\r\nAccept: */*\r\n\r\n"
 

@@ -7,7 +7,7 @@ import asyncio
 from monitor_helpers import BOUND, SseReader, get, run, serving
 
 from openair.client import Module
-from openair.monitor import HttpLimits, MonitorOptions
+from openair_monitor import HttpLimits, MonitorOptions
 
 
 async def writer(port: int) -> Module:

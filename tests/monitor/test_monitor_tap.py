@@ -11,10 +11,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from openair.monitor import MonitorOptions
-from openair.monitor.messages import MessageFilter, detail, summary
-from openair.monitor.sse import Broadcaster
-from openair.monitor.tap import LATENCY_BOUNDS_US, Histogram, RateMeter, Tap
 from openair.protocol.errors import PatternInvalidError
 from openair.protocol.matching import matches
 from openair.protocol.message import Message
@@ -22,6 +18,10 @@ from openair.protocol.times import AirTime
 from openair.protocol.wakeup import build_wakeup
 from openair.server.core.queues import QueueItem
 from openair.server.core.router import Delivery
+from openair_monitor import MonitorOptions
+from openair_monitor.messages import MessageFilter, detail, summary
+from openair_monitor.sse import Broadcaster
+from openair_monitor.tap import LATENCY_BOUNDS_US, Histogram, RateMeter, Tap
 
 
 def stored(wbid: int, type_: str = "Test.A", sender: str = "P", content: str = "") -> Message:

@@ -15,11 +15,11 @@ from typing import Any
 import pytest
 from ontology_helpers import ARTIFACTS, HISTORY, ONTOLOGY, PSYSPEC
 
-from openair.ontology.history import read_xml
-from openair.ontology.parse import read_ontology
-from openair.ontology.site import build_context, write_site
-from openair.ontology.usage import merge, usage_from_config, usage_from_history
 from openair.server.core.config import load_config
+from openair_ontology.history import read_xml
+from openair_ontology.parse import read_ontology
+from openair_ontology.site import build_context, write_site
+from openair_ontology.usage import merge, usage_from_config, usage_from_history
 
 SENTENCE = "Input.Perc.UniM.Hear.Voice.Speak.Sentence"
 BOUND = 5.0  # seconds any DOM condition may take to hold

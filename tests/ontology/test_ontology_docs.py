@@ -19,9 +19,9 @@ from lxml import html as lxml_html
 from ontology_helpers import HISTORY, ONTOLOGY, PSYSPEC
 
 from openair.cli import main
-from openair.ontology.diagram import render_svg
-from openair.ontology.parse import read_ontology
-from openair.ontology.usage import Usage
+from openair_ontology.diagram import render_svg
+from openair_ontology.parse import read_ontology
+from openair_ontology.usage import Usage
 
 SENTENCE = "types/Input.Perc.UniM.Hear.Voice.Speak.Sentence"
 

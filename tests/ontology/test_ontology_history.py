@@ -8,15 +8,15 @@ from pathlib import Path
 import pytest
 from ontology_helpers import HISTORY, ONTOLOGY, PSYSPEC
 
-from openair.ontology.history import HistoryError, load_history, read_sqlite, read_xml
-from openair.ontology.lint import lint
-from openair.ontology.model import TypeIndex
-from openair.ontology.parse import read_ontology
-from openair.ontology.usage import Source, usage_from_config, usage_from_history
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
 from openair.server.aio.stores import SqliteStore
 from openair.server.core.config import load_config
+from openair_ontology.history import HistoryError, load_history, read_sqlite, read_xml
+from openair_ontology.lint import lint
+from openair_ontology.model import TypeIndex
+from openair_ontology.parse import read_ontology
+from openair_ontology.usage import Source, usage_from_config, usage_from_history
 
 
 def test_example_history_reads_oldest_first() -> None:

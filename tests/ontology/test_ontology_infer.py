@@ -16,10 +16,10 @@ from ontology_helpers import ONTOLOGY, PSYSPEC
 
 from openair.cli import main
 from openair.client.blocking import BlockingModule
-from openair.ontology.history import HistoryError, load_history, read_sqlite
-from openair.ontology.model import Kind, TypeIndex
-from openair.ontology.parse import read_ontology
 from openair.server.core.config import load_config
+from openair_ontology.history import HistoryError, load_history, read_sqlite
+from openair_ontology.model import Kind, TypeIndex
+from openair_ontology.parse import read_ontology
 
 SENTENCE = "Input.Perc.UniM.Hear.Voice.Speak.Sentence"
 MOUSE = "Skundar.Input.Sens.MouseMotion"

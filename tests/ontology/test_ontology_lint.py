@@ -9,12 +9,12 @@ from click.testing import CliRunner
 from ontology_helpers import FIXTURES, HISTORY, ONTOLOGY, PSYSPEC
 
 from openair.cli import main
-from openair.ontology.lint import Finding, Level, lint, nearest_names, suggest
-from openair.ontology.model import TypeIndex
-from openair.ontology.parse import read_ontology
-from openair.ontology.relations import deviation
-from openair.ontology.usage import merge, usage_from_config
 from openair.server.core.config import load_config
+from openair_ontology.lint import Finding, Level, lint, nearest_names, suggest
+from openair_ontology.model import TypeIndex
+from openair_ontology.parse import read_ontology
+from openair_ontology.relations import deviation
+from openair_ontology.usage import merge, usage_from_config
 
 PROBLEMS = FIXTURES / "problems.psySpec.xml"
 

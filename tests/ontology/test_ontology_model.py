@@ -7,10 +7,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 from ontology_helpers import ONTOLOGY
 
-from openair.ontology.model import Kind, TypeIndex, entry_matches
-from openair.ontology.parse import OntologyError, encode_ontology, parse_ontology, read_ontology
-from openair.ontology.paths import Paths, file_name
 from openair.protocol.matching import matches
+from openair_ontology.model import Kind, TypeIndex, entry_matches
+from openair_ontology.parse import OntologyError, encode_ontology, parse_ontology, read_ontology
+from openair_ontology.paths import Paths, file_name
 
 
 @pytest.fixture(scope="module")

@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 from ontology_helpers import ONTOLOGY
 
-from openair.ontology.model import TypeEntry, TypeIndex
-from openair.ontology.parse import read_ontology
-from openair.ontology.relations import Relations, subtree_patterns
-from openair.ontology.usage import Posting, Source, Subscription, Usage
+from openair_ontology.model import TypeEntry, TypeIndex
+from openair_ontology.parse import read_ontology
+from openair_ontology.relations import Relations, subtree_patterns
+from openair_ontology.usage import Posting, Source, Subscription, Usage
 
 
 @pytest.fixture(scope="module")

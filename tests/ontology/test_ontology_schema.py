@@ -15,9 +15,9 @@ import xmlschema
 from lxml import etree
 from ontology_helpers import FIXTURES, ONTOLOGY, ROOT
 
-from openair.ontology.history import read_xml
-from openair.ontology.infer import infer_ontology
-from openair.ontology.parse import encode_ontology
+from openair_ontology.history import read_xml
+from openair_ontology.infer import infer_ontology
+from openair_ontology.parse import encode_ontology
 
 XSD = ROOT / "schemas" / "ontology.xsd"
 

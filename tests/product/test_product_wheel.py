@@ -46,7 +46,8 @@ def _source_copy(into: Path) -> Path:
     for name in ("pyproject.toml", "README.md", "setup.py"):  # setup.py: the C data path
         shutil.copy2(ROOT / name, into / name)
     skip = shutil.ignore_patterns("__pycache__", "*.egg-info", "build", "*.so")
-    for name in ("reference", "conformance", "schemas", "spec"):  # _data/ links to the last two
+    # _data/ links to the last two
+    for name in ("reference", "apps", "conformance", "schemas", "spec"):
         shutil.copytree(ROOT / name, into / name, symlinks=True, ignore=skip)
     return into
 

@@ -16,12 +16,12 @@ from server_thread import ReferenceServer
 
 from openair.cli import main
 from openair.client import BlockingModule
-from openair.monitor.http import HttpError, Request
 from openair.protocol.content import RetrieveSpec
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
-from openair.recording import Header, RecordingReader, RecordingWriter, read_index
-from openair.recording.monitor import RecordingMonitor
+from openair_monitor.http import HttpError, Request
+from openair_recording import Header, RecordingReader, RecordingWriter, read_index
+from openair_recording.monitor import RecordingMonitor
 
 OPENAIR = [sys.executable, "-m", "openair.cli"]
 

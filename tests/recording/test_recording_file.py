@@ -23,7 +23,7 @@ from openair.protocol.errors import (
 )
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
-from openair.recording import (
+from openair_recording import (
     Header,
     MessageRecord,
     RecordingReader,
@@ -33,7 +33,7 @@ from openair.recording import (
     plan,
     read_index,
 )
-from openair.recording.fileformat import MAGIC
+from openair_recording.fileformat import MAGIC
 
 BASE_MS = 1_800_000_000_000
 HEADER = Header(server="127.0.0.1:1", started_ns=BASE_MS * 1_000_000, whiteboards=("WB1",))
@@ -255,7 +255,7 @@ def test_ontology_infer_warns_about_a_cut_recording(tmp_path: Path) -> None:
 
 def test_recorded_stream_sizes_are_created_in_mib() -> None:
     # GET_STREAMS reports bytes; <stream maxsize> is in MiB (OA-STREAM-9).
-    from openair.recording.replay import _mib
+    from openair_recording.replay import _mib
 
     assert _mib("10485760") == "10"
     assert _mib("524288") == "0.5"

@@ -12,7 +12,9 @@ from openair.client import Module
 from openair.protocol.content import RetrieveSpec
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
-from openair.recording import (
+from openair.server.aio.app import DEFAULT_EXTENSIONS, ServerOptions, start_server
+from openair.server.core.config import parse_config
+from openair_recording import (
     Header,
     MessageRecord,
     Recorder,
@@ -24,9 +26,7 @@ from openair.recording import (
     plan,
     read_index,
 )
-from openair.recording.replay import ORIGINAL_POSTED_SLOT, ORIGINAL_TIMESTAMP_PARAM
-from openair.server.aio.app import DEFAULT_EXTENSIONS, ServerOptions, start_server
-from openair.server.core.config import parse_config
+from openair_recording.replay import ORIGINAL_POSTED_SLOT, ORIGINAL_TIMESTAMP_PARAM
 
 TIMEOUT = 30.0
 NO_STREAMS = b"""<psySpec name="Target" version="1.2">

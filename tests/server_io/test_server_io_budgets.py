@@ -284,7 +284,7 @@ def test_a_post_past_the_held_bytes_is_refused_before_it_is_stored() -> None:
 
 
 def test_the_monitor_ring_is_bounded_by_bytes() -> None:
-    from openair.monitor.tap import Tap
+    from openair_monitor.tap import Tap
 
     tap = Tap(capacity=512, max_bytes=100 * KIB)
     for n in range(50):

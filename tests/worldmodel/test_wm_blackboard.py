@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 
 from openair.protocol.errors import ApiMisuseError, ContentInvalidError
-from openair.worldmodel import Blackboard, ClassDef, FunctionRef, Packet, WMObject, WorldModelCore
-from openair.worldmodel.interface import Outgoing, ReportFilter
-from openair.worldmodel.wire import decode_class, decode_report, encode_class
+from openair_worldmodel import Blackboard, ClassDef, FunctionRef, Packet, WMObject, WorldModelCore
+from openair_worldmodel.interface import Outgoing, ReportFilter
+from openair_worldmodel.wire import decode_class, decode_report, encode_class
 
 
 def _doubled(bb: Blackboard, obj: WMObject, attr: str, packet: Packet | None) -> Packet | None:

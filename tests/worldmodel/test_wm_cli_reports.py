@@ -11,8 +11,8 @@ from server_thread import ServerThread
 
 from openair.cli import main
 from openair.server.aio.app import ServerOptions, start_server
-from openair.worldmodel.node import WorldModelNode
 from openair_conformance.worldmodel import CASES
+from openair_worldmodel.node import WorldModelNode
 
 
 def _serve() -> ServerThread:

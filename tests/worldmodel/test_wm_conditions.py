@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from openair.worldmodel.conditions import (
+from openair_worldmodel.conditions import (
     FIELDS,
     KEYWORDS,
     And,
@@ -27,7 +27,7 @@ from openair.worldmodel.conditions import (
     to_text,
     to_tree,
 )
-from openair.worldmodel.packets import Packet, Ref
+from openair_worldmodel.packets import Packet, Ref
 
 VECTORS = Path(__file__).resolve().parents[2] / "spec/vectors/worldmodel/conditions.json"
 CASES = json.loads(VECTORS.read_text())["cases"]

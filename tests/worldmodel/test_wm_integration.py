@@ -10,9 +10,9 @@ from click.testing import CliRunner
 
 from openair.cli import main
 from openair.server.aio.app import ServerOptions, start_server
-from openair.worldmodel import Context
-from openair.worldmodel.node import WorldModelNode
 from openair_conformance.worldmodel import CASES, run_cases
+from openair_worldmodel import Context
+from openair_worldmodel.node import WorldModelNode
 
 BOUND = 20.0
 

@@ -15,9 +15,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from openair.worldmodel import ControlAction, Plan, WorldModelCore, parse_condition
-from openair.worldmodel.plans import Ack, Fire, PlanEngine, PlanState, step
-from openair.worldmodel.wire import TYPE_ACK, decode_ack
+from openair_worldmodel import ControlAction, Plan, WorldModelCore, parse_condition
+from openair_worldmodel.plans import Ack, Fire, PlanEngine, PlanState, step
+from openair_worldmodel.wire import TYPE_ACK, decode_ack
 
 TRACES = json.loads(
     (Path(__file__).resolve().parents[2] / "spec/vectors/worldmodel/plan-traces.json").read_text()

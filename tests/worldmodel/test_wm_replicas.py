@@ -5,8 +5,8 @@ from __future__ import annotations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from openair.worldmodel import Context, Packet, Ref, WorldModelCore
-from openair.worldmodel.wire import Report, ReportObject, encode_report
+from openair_worldmodel import Context, Packet, Ref, WorldModelCore
+from openair_worldmodel.wire import Report, ReportObject, encode_report
 
 _values = st.one_of(
     st.floats(-10, 10, allow_nan=False), st.sampled_from(["a", "b"]), st.just(Ref(name="X"))

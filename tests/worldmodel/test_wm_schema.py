@@ -11,7 +11,7 @@ import xmlschema
 from lxml import etree
 
 from openair.protocol.errors import ContentInvalidError, XmlForbiddenError, XmlTooDeepError
-from openair.worldmodel import wire
+from openair_worldmodel import wire
 
 ROOT = Path(__file__).resolve().parents[2]
 XSD = ROOT / "schemas" / "worldmodel.xsd"

@@ -9,10 +9,12 @@ from __future__ import annotations
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 
-from openair.worldmodel import ClassDef, ControlAction, Packet, Plan, ReportAction
-from openair.worldmodel import Context as WmContext
-from openair.worldmodel.conditions import parse_condition
-from openair.worldmodel.wire import (
+from openair_conformance.model import CaseInfo, Level
+from openair_conformance.worldmodel.peer import CaseFailure, Peer
+from openair_worldmodel import ClassDef, ControlAction, Packet, Plan, ReportAction
+from openair_worldmodel import Context as WmContext
+from openair_worldmodel.conditions import parse_condition
+from openair_worldmodel.wire import (
     TYPE_CANCEL,
     TYPE_CLASS,
     TYPE_HELLO,
@@ -28,8 +30,6 @@ from openair.worldmodel.wire import (
     encode_plan,
     encode_report,
 )
-from openair_conformance.model import CaseInfo, Level
-from openair_conformance.worldmodel.peer import CaseFailure, Peer
 
 #: The spec section of every world-model case (16, extension `worldmodel`).
 SECTION = "16"

@@ -13,8 +13,8 @@ from lxml import etree
 from openair.client import Module, WakeupEvent
 from openair.protocol.content import RetrieveSpec, Trigger
 from openair.protocol.message import Message
-from openair.worldmodel.wire import TYPE_ACK, TYPE_REPORT, PlanAck, decode_ack
 from openair_conformance.model import Fail
+from openair_worldmodel.wire import TYPE_ACK, TYPE_REPORT, PlanAck, decode_ack
 
 XSD = Path(__file__).resolve().parents[3] / "schemas" / "worldmodel.xsd"
 _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False)

@@ -85,7 +85,7 @@ async def _attach(name: str, server: Server) -> MonitorHook | None:
 
 
 class MonitorHook(Protocol):
-    """What the server needs from an attached web monitor (openair.monitor)."""
+    """What the server needs from an attached web monitor (openair_monitor)."""
 
     def adopt(self, transport: asyncio.Transport, data: bytes) -> None:
         """Serve HTTP on a main-port connection whose first bytes were `data`."""
@@ -178,7 +178,7 @@ class Server:
             "DELIVERY_FAILED": 0,
             "EXPIRED": 0,  # OA-DELIV-14
         }
-        #: The web monitor attached by `openair.monitor.attach` (None: no HTTP served).
+        #: The web monitor attached by `openair_monitor.attach` (None: no HTTP served).
         self.monitor: MonitorHook | None = None
         self._pushers: dict[int, Pusher] = {}  # push connections by id (11.6)
         self._wait_timers: dict[int, tuple[int, asyncio.TimerHandle]] = {}  # ticket -> conn, timer

@@ -18,7 +18,7 @@ from pathlib import Path
 import click
 
 from openair.protocol.address import parse_server
-from openair.server.core.config import ConfigError, load_config
+from openair.protocol.psyspec import ConfigError, load_config
 from openair_ontology.history import (
     History,
     HistoryConnectError,

@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 from openair.protocol.errors import OpenAIRError
 from openair.protocol.matching import ascii_fold
 from openair.protocol.message import Message
+from openair.protocol.psyspec import name_problem
 from openair.protocol.xmlsafe import local_name, parse_fragment
-from openair.server.core.config import name_problem
 from openair_ontology.model import ContentSpec, Example, Kind, Link, Observed, Ontology, TypeNode
 from openair_ontology.parse import indent_xml
 from openair_ontology.usage import Observation, iso_time, usage_from_history

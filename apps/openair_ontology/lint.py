@@ -29,7 +29,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 from openair.protocol.matching import ascii_fold
-from openair.server.core.config import SYSTEM_COMPONENTS
+from openair.protocol.psyspec import SYSTEM_COMPONENTS
 from openair_ontology.model import Kind, TypeEntry, TypeIndex
 from openair_ontology.relations import Difference, Relations
 from openair_ontology.usage import Source, Usage

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from markupsafe import Markup
 
-from openair.server.core.config import SYSTEM_COMPONENTS
+from openair.protocol.psyspec import SYSTEM_COMPONENTS
 from openair_ontology.lint import Finding, Level
 from openair_ontology.model import Kind
 from openair_ontology.pages import DocContext

@@ -1,6 +1,6 @@
 """What a system does with its types: who posts, who subscribes, which streams, what was seen.
 
-`usage_from_config` reads a loaded psySpec (`openair.server.core.config.load_config`): the modules'
+`usage_from_config` reads a loaded psySpec (`openair.protocol.psyspec.load_config`): the modules'
 triggers and retrieves (their registrations, spec 8.2), the `<post>` declarations (which the
 server echoes but does not interpret, spec 12.1), the whiteboards and their streams, and the
 modules' stream references. `usage_from_history` reads recorded messages (stored copies): who
@@ -19,10 +19,10 @@ from lxml import etree
 
 from openair.protocol.matching import ascii_fold
 from openair.protocol.message import Message
+from openair.protocol.psyspec import ServerConfig
 from openair.protocol.times import AirTime
 from openair.protocol.types import is_valid_type
 from openair.protocol.xmlsafe import XmlLimits, parse_xml
-from openair.server.core.config import ServerConfig
 
 __all__ = [
     "ModuleInfo",

@@ -13,6 +13,7 @@ from collections.abc import Iterable, Sequence
 
 from lxml import etree
 
+from openair.protocol.connection import ANSWER_FOR
 from openair.protocol.errors import ErrorCode
 from openair.protocol.framing import Frame, FrameTag
 from openair.protocol.message import Message
@@ -318,7 +319,6 @@ async def next_request(
     Fails if the server answers the Receive frame (OA-SESS-7) or sends a reply there
     (OA-SESS-28).
     """
-    answers = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
     while True:
         msg = await callback.read_message()
         ctx.check(
@@ -326,8 +326,8 @@ async def next_request(
             f"the server answered the Receive frame with {msg.type}",
             expected="no reply to RECEIVE_NAME_NOTIFICATION (OA-SESS-7)",
         )
-        if msg.type in answers:
-            await callback.send_message(msg.reply(answers[msg.type], sender=name))
+        if msg.type in ANSWER_FOR:
+            await callback.send_message(msg.reply(ANSWER_FOR[msg.type], sender=name))
             continue
         if is_phase_update(msg):  # OA-WAKE-9: allowed at any time; not what the case awaits
             await ack(callback, msg, name)

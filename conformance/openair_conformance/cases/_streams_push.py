@@ -13,6 +13,7 @@ import contextlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
+from openair.protocol.connection import ANSWER_FOR
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
 from openair_conformance.cases._streams import Sample, StreamClient, marker, read_chunk
@@ -120,9 +121,8 @@ class PushReader:
 
     async def _handle(self, msg: Message) -> None:
         state = self._state
-        answers = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
-        if msg.type in answers:
-            await self.raw.stream.send_message(msg.reply(answers[msg.type], sender=self.name))
+        if msg.type in ANSWER_FOR:
+            await self.raw.stream.send_message(msg.reply(ANSWER_FOR[msg.type], sender=self.name))
             return
         if msg.type != "DATASAMPLE" or msg.isresponse:
             state.problems.append(

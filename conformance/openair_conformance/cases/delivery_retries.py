@@ -13,6 +13,7 @@ import asyncio
 import contextlib
 import time
 
+from openair.protocol.connection import ANSWER_FOR
 from openair.protocol.message import Message
 from openair_conformance.cases._common import triggers_xml
 from openair_conformance.harness import CaseContext, RawConnection, TestModule
@@ -20,8 +21,6 @@ from openair_conformance.harness.checks import is_phase_update, wakeup_trigger_i
 from openair_conformance.harness.conn import ConnectionLost, DecodeProblem, FramedStream
 from openair_conformance.model import Inconclusive
 from openair_conformance.registry import case
-
-_ANSWERS = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
 
 
 class _Dropper:
@@ -53,8 +52,8 @@ class _Dropper:
     async def _one(self, stream: FramedStream) -> bool:
         """Answer one request; return False once the connection is to be closed."""
         msg = stream.decode(await stream.read_frame())
-        if msg.type in _ANSWERS:
-            await stream.send_message(msg.reply(_ANSWERS[msg.type], sender=self.name))
+        if msg.type in ANSWER_FOR:
+            await stream.send_message(msg.reply(ANSWER_FOR[msg.type], sender=self.name))
             return True
         if is_phase_update(msg):
             await stream.send_message(msg.reply("RECEIVE_ACCEPT", sender=self.name))

@@ -29,6 +29,7 @@ from collections import deque
 from dataclasses import dataclass, field, replace
 
 from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.connection import ANSWER_FOR, answer_type
 from openair.protocol.errors import OpenAIRError
 from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
 from openair.protocol.matching import matches
@@ -48,7 +49,6 @@ __all__ = [
 ]
 
 #: The answer a module owes each kind of request (OA-SESS-11, OA-DELIV-4, OA-KEEP-2).
-ANSWER_FOR = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
 _READ = 65_536
 _DECLARING = frozenset({"BIND", "BIND_NOLISTEN", "RECEIVE_NAME_NOTIFICATION"})
 
@@ -104,7 +104,7 @@ class AckRecord:
         msg = self.request.message
         if msg is None:
             return "RECEIVE_ERROR"  # OA-SESS-11: a request it cannot parse
-        return ANSWER_FOR.get(msg.type, "RECEIVE_ACCEPT")
+        return answer_type(msg.type)
 
 
 @dataclass(slots=True)

@@ -20,6 +20,7 @@ from contextvars import ContextVar
 from dataclasses import dataclass, replace
 
 from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.connection import ANSWER_FOR
 from openair.protocol.errors import OpenAIRError
 from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
 from openair.protocol.message import Message
@@ -36,8 +37,9 @@ __all__ = [
     "open_stream",
 ]
 
-#: The reply a responder sends for each server request type; anything else gets RECEIVE_ACCEPT.
-ANSWERS: dict[str, str] = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
+#: The reply a responder sends for each server request type; anything else gets RECEIVE_ACCEPT
+#: (the one table of `openair.protocol.connection`, OA-SESS-10, OA-KEEP-2).
+ANSWERS = ANSWER_FOR
 _READ_SIZE = 65_536
 
 

@@ -19,18 +19,24 @@ again (OA-FRAME-9).
 
 from __future__ import annotations
 
-import enum
-from collections import deque
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 
 from lxml import etree
 
 from openair.protocol.codec import encode_message, from_frame, message_to_element, to_frame
+from openair.protocol.connection import (
+    CLIENT_RULES,
+    TRANSITIONS,
+    Action,
+    Connection,
+    Role,
+    State,
+    answer_type,
+)
 from openair.protocol.errors import (
     ApiMisuseError,
     ConnectionClosedError,
-    MessageInvalidError,
     OpenAIRError,
     RemoteProtocolError,
 )
@@ -45,6 +51,20 @@ from openair.protocol.framing import (
 from openair.protocol.message import CANONICAL_SLOTS, Message
 from openair.protocol.times import AirTime
 
+__all__ = [
+    "CLIENT_EXTENSIONS",
+    "DEFAULT_MAX_IN_FLIGHT",
+    "Buffer",
+    "ClientConnection",
+    "Closed",
+    "Event",
+    "Invalid",
+    "Reply",
+    "Request",
+    "Role",
+    "State",
+]
+
 #: Extensions this client implements (OA-EXT-1); a module declares a subset (OA-SESS-19).
 CLIENT_EXTENSIONS: frozenset[str] = frozenset({"noreply", "pipelining", "usec", "gettime"})
 
@@ -55,58 +75,6 @@ Buffer = bytes | bytearray | memoryview
 
 # The slots the codec writes before `binarysizes` (canonical order, spec 3.5).
 _BEFORE_SIZES = frozenset(CANONICAL_SLOTS[: CANONICAL_SLOTS.index("binarysizes")])
-
-#: The acknowledgement a module sends for each kind of delivery (OA-SESS-11, OA-DELIV-4).
-_ANSWER_FOR: dict[str, str] = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
-
-
-class Role(enum.Enum):
-    """Which side of the request/reply pairing this end of the connection is (OA-SESS-28)."""
-
-    REQUESTER = "requester"
-    RESPONDER = "responder"
-
-
-class State(enum.Enum):
-    """The state of a `ClientConnection`."""
-
-    REQUESTER = "requester"
-    RESPONDER = "responder"
-    CLOSED = "closed"
-    ERROR = "error"
-
-
-class Action(enum.Enum):
-    """What a caller or the peer does to a connection (the columns of the state table)."""
-
-    SEND_REQUEST = "send_request"
-    SEND_NOTIFICATION = "send_notification"
-    RECEIVE = "receive_data"
-    ANSWER = "answer"
-    PEER_CLOSED = "peer_closed"
-    CLOSE = "close"
-    PROTOCOL_ERROR = "protocol_error"
-
-
-#: (state, action) -> next state. A missing key is API misuse (style: state machines are tables).
-_TRANSITIONS: dict[tuple[State, Action], State] = {
-    (State.REQUESTER, Action.SEND_REQUEST): State.REQUESTER,
-    (State.REQUESTER, Action.SEND_NOTIFICATION): State.RESPONDER,  # OA-SESS-7, OA-SESS-28
-    (State.REQUESTER, Action.RECEIVE): State.REQUESTER,
-    (State.REQUESTER, Action.PEER_CLOSED): State.CLOSED,
-    (State.REQUESTER, Action.CLOSE): State.CLOSED,
-    (State.REQUESTER, Action.PROTOCOL_ERROR): State.ERROR,
-    (State.RESPONDER, Action.RECEIVE): State.RESPONDER,
-    (State.RESPONDER, Action.ANSWER): State.RESPONDER,
-    (State.RESPONDER, Action.PEER_CLOSED): State.CLOSED,
-    (State.RESPONDER, Action.CLOSE): State.CLOSED,
-    (State.RESPONDER, Action.PROTOCOL_ERROR): State.ERROR,
-    (State.CLOSED, Action.RECEIVE): State.CLOSED,
-    (State.CLOSED, Action.PEER_CLOSED): State.CLOSED,
-    (State.CLOSED, Action.CLOSE): State.CLOSED,
-    (State.ERROR, Action.CLOSE): State.ERROR,
-    (State.ERROR, Action.PEER_CLOSED): State.ERROR,
-}
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -147,14 +115,6 @@ Event = Reply | Request | Invalid | Closed
 
 
 @dataclass(slots=True)
-class _Pending:
-    """A request sent and not yet answered."""
-
-    id: str
-    type: str
-
-
-@dataclass(slots=True)
 class _Counters:
     """What went over the connection (for tests and diagnostics)."""
 
@@ -166,7 +126,7 @@ class _Counters:
 
 
 class ClientConnection:
-    """One connection of an OpenAIR module or client, as a sans-I/O state machine.
+    """One connection of an OpenAIR module or client: the shared `Connection` rules plus bytes.
 
     `now` returns nanoseconds since the epoch; it is called once per outgoing message, as the
     last act before encoding (OA-TIME-2). `window` bounds the requests in flight: 1 for a legacy
@@ -187,14 +147,13 @@ class ClientConnection:
     ) -> None:
         if window < 1:
             raise ApiMisuseError(f"window must be at least 1, not {window}")
-        self._state = State(role.value)
+        #: The rules of the connection, shared with the server and the conformance suite.
+        self.machine: Connection[None] = Connection(role, rules=CLIENT_RULES)
         self._now = now
         self.window = window
         self.extensions = frozenset(extensions)
         self.name = name
         self._reader = FrameReader(limits or FrameLimits())
-        self._in_flight: deque[_Pending] = deque()
-        self._to_answer: deque[Request | Invalid] = deque()
         self._error: RemoteProtocolError | None = None
         self.counters = _Counters()
         #: The last message `send_request`/`send_notification` encoded (with its postedTime).
@@ -205,33 +164,32 @@ class ClientConnection:
     @property
     def state(self) -> State:
         """The current state."""
-        return self._state
+        return self.machine.state
 
     @property
     def in_flight(self) -> int:
         """How many requests were sent and not answered yet."""
-        return len(self._in_flight)
+        return self.machine.in_flight
 
     @property
     def can_send(self) -> bool:
         """True when a request may be sent now without exceeding the window."""
-        return self._state is State.REQUESTER and len(self._in_flight) < self.window
+        return self.machine.state is State.REQUESTER and self.machine.in_flight < self.window
 
     @property
     def unanswered(self) -> int:
         """How many received requests still wait for `answer()`."""
-        return len(self._to_answer)
+        return self.machine.unanswered
 
     def _transition(self, action: Action) -> None:
         """Move to the next state, or raise when the table has no entry."""
-        nxt = _TRANSITIONS.get((self._state, action))
-        if nxt is None:
-            if self._state is State.CLOSED:
+        state = self.machine.state
+        if (state, action) not in TRANSITIONS:
+            if state is State.CLOSED:
                 raise ConnectionClosedError(f"cannot {action.value}: the connection is closed")
-            if self._state is State.ERROR and self._error is not None:
+            if state is State.ERROR and self._error is not None:
                 raise ConnectionClosedError(f"cannot {action.value} after {self._error}")
-            raise ApiMisuseError(f"cannot {action.value} in state {self._state.value}")
-        self._state = nxt
+        self.machine.transition(action)
 
     # -- sending -----------------------------------------------------------------------------
 
@@ -276,7 +234,7 @@ class ClientConnection:
         size = sum(memoryview(part).nbytes for part in parts)
         if size > MAX_LENGTH:
             raise ApiMisuseError(f"a BinaryM body of {size} bytes does not fit the uint32 length")
-        if self._state is State.REQUESTER and len(self._in_flight) >= self.window:
+        if self.machine.state is State.REQUESTER and self.machine.in_flight >= self.window:
             raise ApiMisuseError(f"{self.window} request(s) already in flight")  # OA-SESS-18
         self._transition(Action.SEND_REQUEST)
         self._track("", FrameTag.BINARY.value, expects_reply=True)
@@ -285,10 +243,10 @@ class ClientConnection:
 
     def _begin_request(self, msg: Message) -> Message:
         """Check that request `msg` may be sent now and return it stamped (OA-TIME-2)."""
-        if self._state is State.REQUESTER:
+        if self.machine.state is State.REQUESTER:
             if msg.noreply and "noreply" not in self.extensions:
                 raise ApiMisuseError("noreply needs the noreply extension")  # OA-GEN-2
-            if not msg.noreply and len(self._in_flight) >= self.window:
+            if not msg.noreply and self.machine.in_flight >= self.window:
                 raise ApiMisuseError(f"{self.window} request(s) already in flight")  # OA-SESS-18
         self._transition(Action.SEND_REQUEST)
         stamped = self.last_sent = self._stamp(msg)
@@ -296,9 +254,8 @@ class ClientConnection:
 
     def _track(self, request_id: str, type: str, *, expects_reply: bool) -> None:
         """Count a request sent; one that expects a reply waits for it in order (OA-SESS-33)."""
-        if expects_reply:
-            self._in_flight.append(_Pending(id=request_id, type=type))
-            self.counters.in_flight_peak = max(self.counters.in_flight_peak, self.in_flight)
+        self.machine.send_request(request_id, type, None, expects_reply=expects_reply)
+        self.counters.in_flight_peak = self.machine.in_flight_peak
         self.counters.requests_sent += 1
 
     def send_notification(self, msg: Message) -> bytes:
@@ -306,9 +263,7 @@ class ClientConnection:
 
         No reply follows; from then on the server is the requester (OA-SESS-28).
         """
-        if self._state is State.REQUESTER and self._in_flight:
-            raise ApiMisuseError("cannot turn a connection with requests in flight around")
-        self._transition(Action.SEND_NOTIFICATION)
+        self.machine.send_notification()
         self.last_sent = self._stamp(msg)
         return encode_frame(to_frame(self.last_sent, FrameTag.RECEIVE))
 
@@ -322,14 +277,15 @@ class ClientConnection:
         """Return the frame answering `request`, the oldest unanswered one (OA-SESS-2).
 
         The default type is PING_SUCCESS for PING, KEEPALIVESUCCESS for KEEPALIVE, RECEIVE_ACCEPT
-        otherwise (OA-SESS-11, OA-DELIV-4, OA-KEEP-2), and RECEIVE_ERROR with `NAME: detail` for
-        an `Invalid` request (OA-ERR-2, OA-ERR-3). `isresponse` is the request's id (OA-SESS-1).
+        otherwise (`answer_type`: OA-SESS-11, OA-DELIV-4, OA-KEEP-2), and RECEIVE_ERROR with
+        `NAME: detail` for an `Invalid` request (OA-ERR-2, OA-ERR-3). `isresponse` is the
+        request's id (OA-SESS-1).
         """
-        oldest = self._to_answer[0] if self._to_answer else None
-        if self._state is State.RESPONDER and oldest is not request:
-            raise ApiMisuseError("answer the oldest unanswered request first (OA-SESS-2)")
-        self._transition(Action.ANSWER)
-        self._to_answer.popleft()
+        if self.machine.state is State.REQUESTER:  # a client answers only as the responder
+            raise ApiMisuseError("cannot answer in state requester")
+        if self.machine.state is not State.RESPONDER:
+            self._transition(Action.ANSWER)  # raises ConnectionClosedError
+        self.machine.answer(request)
         if isinstance(request, Invalid):
             reply = Message(
                 type=type or "RECEIVE_ERROR",
@@ -337,7 +293,7 @@ class ClientConnection:
                 content=content or request.error.wire_text(),
             )
         else:
-            kind = type or _ANSWER_FOR.get(request.message.type, "RECEIVE_ACCEPT")
+            kind = type or answer_type(request.message.type)
             reply = request.message.reply(kind, sender=self.name, content=content)
         self.counters.answers_sent += 1
         return encode_frame(to_frame(self._stamp(reply)))
@@ -359,8 +315,7 @@ class ClientConnection:
             raise self._error
         if not data:
             return self._peer_closed()
-        self._transition(Action.RECEIVE)
-        if self._state is State.CLOSED:
+        if self.machine.state is State.CLOSED:
             return []  # closed by this side: late bytes are dropped
         events: list[Event] = []
         try:
@@ -374,28 +329,26 @@ class ClientConnection:
 
     def _peer_closed(self) -> list[Event]:
         """Handle end of stream: a partial frame is FRAME_TRUNCATED (OA-FRAME-8)."""
-        if self._state is State.CLOSED:
+        if self.machine.state is State.CLOSED:
             return []
         try:
             self._reader.feed_eof()
         except RemoteProtocolError as exc:
             self._fail(exc)
             raise
-        unanswered = tuple(p.id for p in self._in_flight)
-        self._in_flight.clear()
-        self._transition(Action.PEER_CLOSED)
+        unanswered = tuple(p.id for p in self.machine.peer_closed())
         return [Closed(unanswered=unanswered)]
 
     def _fail(self, exc: RemoteProtocolError) -> None:
         """Enter the sticky error state (OA-FRAME-9)."""
-        self._transition(Action.PROTOCOL_ERROR)
+        self.machine.protocol_error()
         self._error = exc
 
     def _event_for(self, frame: Frame) -> Event:
         """Turn one complete frame into an event."""
         # OA-MSG-19: a client reads what a legacy server writes; a priority out of range is
         # clamped, not refused (a server validating a post is stricter, OA-MSG-6).
-        if self._state is State.REQUESTER:
+        if self.machine.state is State.REQUESTER:
             return self._reply_for(from_frame(frame, clamp_priority=True))
         try:
             msg = from_frame(frame, clamp_priority=True)
@@ -407,24 +360,16 @@ class ClientConnection:
             noreply = msg.noreply and "noreply" in self.extensions  # OA-MSG-15
             event = Request(message=msg, needs_answer=not noreply)
         self.counters.requests_received += 1
-        if not isinstance(event, Request) or event.needs_answer:
-            self._to_answer.append(event)
+        needs = not isinstance(event, Request) or event.needs_answer
+        self.machine.receive_request(event, needs_answer=needs)
         return event
 
     def _reply_for(self, msg: Message) -> Reply:
-        """Pair a reply with the oldest unanswered request (OA-SESS-33)."""
-        if not self._in_flight:
-            raise MessageInvalidError(f"reply {msg.type!r} with no request in flight")
-        head = self._in_flight[0]
-        # OA-SESS-33: an empty isresponse is accepted (Psyclone's KEEPALIVESUCCESS); a non-empty
-        # one that names another request means the replies are out of order (OA-SESS-2).
-        if msg.isresponse and msg.isresponse != head.id:
-            raise MessageInvalidError(
-                f"reply {msg.type!r} answers {msg.isresponse!r}, expected {head.id!r}"
-            )
-        self._in_flight.popleft()
+        """Pair a reply with the oldest unanswered request (OA-SESS-33, `CLIENT_RULES`)."""
+        paired = self.machine.pair(msg)
+        assert paired.pending is not None  # CLIENT_RULES raise instead
         self.counters.replies_received += 1
-        return Reply(request_id=head.id, message=msg)
+        return Reply(request_id=paired.pending.id, message=msg)
 
 
 def _xml_with_sizes(msg: Message, sizes: Sequence[int]) -> bytes:

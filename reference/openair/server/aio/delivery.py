@@ -26,14 +26,16 @@ from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Protocol
 
+from openair.protocol.connection import answer_type
 from openair.protocol.errors import ConnectionClosedError, OpenAIRError
 from openair.protocol.message import Message
 from openair.server.aio.protocol import ServerConnection, Wire
 from openair.server.aio.scheduling import DEFAULT_TURN_BUDGET, TurnGate
 from openair.server.core.queues import DeliveryQueue, QueueItem
 from openair.server.core.router import Delivery, ModuleInfo
-from openair.server.core.streams import SampleBuffer, StoredSample
-from openair.server.core.streamservice import push_frame, push_message
+from openair.server.core.samplebuffer import SampleBuffer
+from openair.server.core.streamspec import StoredSample
+from openair.server.core.streamwire import push_frame, push_message
 
 __all__ = ["DeliveryHost", "DeliveryOptions", "Dispatcher", "ModuleCounters"]
 
@@ -41,9 +43,6 @@ log = logging.getLogger("openair.server")
 
 #: The longest stop() waits for a module's cancelled tasks to end (shutdown must finish).
 _STOP_WAIT_S = 1.0
-
-#: The acknowledgement each kind of delivery expects (OA-DELIV-4).
-_ACK_FOR = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -285,7 +284,7 @@ class ModuleDelivery:
             self._refused(msg, error.wire_text())
         elif error is not None or reply is None:
             log.error("event=delivery_error module=%s detail=%r", self.name, error)
-        elif msg.noreply or reply.type == _ACK_FOR.get(msg.type, "RECEIVE_ACCEPT"):
+        elif msg.noreply or reply.type == answer_type(msg.type):  # OA-DELIV-4
             self.counters.delivered += 1
             self._d.host.delivered(self.name, 1)
             hook = self._d.on_delivered

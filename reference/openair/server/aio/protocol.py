@@ -6,13 +6,13 @@ usable (OA-ERR-2, OA-ERR-3); a framing error closes this connection only (OA-FRA
 OA-ERR-4), after a `RECEIVE_ERROR` where the error table names one and the server is the
 responder.
 
-A connection has one of three roles (OA-SESS-28):
-
-* RESPONDER — a client opened it; every frame is a request, handed to the router with the time
-  it arrived (read as the first act on receipt, OA-TIME-3) and answered in order (OA-SESS-2).
-* CALLBACK — a module opened it and sent a `Receive` frame (OA-SESS-7); the server is the
-  requester and every frame is a reply to a delivery, paired with the oldest one (OA-SESS-33).
-* OUTBOUND — the server opened it to a module's listening port (OA-DELIV-1); as CALLBACK.
+The connection's rules — its `Role` (RESPONDER, CALLBACK, OUTBOUND, PUSH; OA-SESS-28), the role
+change when a module's `Receive` frame is accepted (OA-SESS-7), the pairing of replies with the
+deliveries awaiting them (OA-SESS-33, OA-KEEP-3) and the answer to a PING or KEEPALIVE sent out of
+turn — are the shared sans-I/O `openair.protocol.connection.Connection` (`self.machine`, with
+`SERVER_RULES`), as uvicorn's protocol holds an `h11.Connection`. As RESPONDER every frame is a
+request, handed to the router with the time it arrived (read as the first act on receipt,
+OA-TIME-3) and answered in order (OA-SESS-2); in the other roles every frame is a reply.
 
 Flow control follows uvicorn's helper: when the transport's write buffer passes its high-water
 mark the connection stops reading, and reads again under the low-water mark; a peer that does not
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import enum
 import logging
 import time
 from collections import deque
@@ -33,6 +32,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from openair.protocol.codec import decode_with_lxml, from_frame, to_frame
+from openair.protocol.connection import SERVER_RULES, Connection, Pending, Role, answer_type
 from openair.protocol.errors import (
     ApiMisuseError,
     ConnectionClosedError,
@@ -55,9 +55,6 @@ __all__ = ["ConnectionHost", "FlowLimits", "Role", "ServerConnection", "Wire"]
 
 log = logging.getLogger("openair.server")
 
-#: Requests a module may send on a connection where the server is the requester; answered, not
-#: paired (a tolerance: OA-SESS-28 forbids them, but answering costs nothing, OA-SESS-10/KEEP-2).
-_ANSWERS = {"PING": "PING_SUCCESS", "KEEPALIVE": "KEEPALIVESUCCESS"}
 #: First bytes that make a main-port connection an HTTP one (the monitor, as psyProbe was;
 #: OA-EXT-3 requires GET/HEAD/POST and allows the others).
 #: Chunks of at least this many bytes are written as parts of their own, never joined (11.2).
@@ -68,15 +65,6 @@ _SEPARATE_CHUNKS = 64 * 1024
 #: expressions of the fast path hold it (12 ms per MiB), which would stall the loop all the same.
 OFF_LOOP_XML = 256 * 1024
 _HTTP_METHODS = (b"GET ", b"HEAD ", b"POST ", b"PUT ", b"OPTIONS ", b"DELETE ")
-
-
-class Role(enum.Enum):
-    """Which side of request/reply pairing the server is on a connection (OA-SESS-28)."""
-
-    RESPONDER = "responder"
-    CALLBACK = "callback"
-    OUTBOUND = "outbound"
-    PUSH = "push"  # a stream's push connection (11.6): the server sends DATASAMPLEs
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -126,36 +114,37 @@ Wire = bytes | tuple[bytes, ...]
 ReplyCallback = Callable[[Message | None, BaseException | None], None]
 
 
-@dataclass(slots=True)
-class _Pending:
-    """A request the server sent on a requester connection and whose reply it awaits.
+#: What waits for a delivery's reply: its future, or the dispatcher's cheaper callback (None: it
+#: keeps its place in the pairing but says nothing).
+Waiter = asyncio.Future[Message] | ReplyCallback | None
 
-    The reply goes to `future`, or to `callback` (the dispatcher's cheaper path).
-    """
 
-    id: str
-    type: str
-    future: asyncio.Future[Message] | None
-    callback: ReplyCallback | None = None
-
-    def fail(self, error: BaseException) -> None:
-        if self.callback is not None:
-            self.callback(None, error)
-        elif self.future is not None and not self.future.done():
+def _fail(waiter: Waiter, error: BaseException) -> None:
+    """End the wait of `waiter` with `error` (CancelledError: a KEEPALIVE passed over)."""
+    if isinstance(waiter, asyncio.Future):
+        if not waiter.done():
             if isinstance(error, asyncio.CancelledError):
-                self.future.cancel()
+                waiter.cancel()
             else:
-                self.future.set_exception(error)
+                waiter.set_exception(error)
+    elif waiter is not None:
+        waiter(None, error)
+
+
+def is_callback(pending: Pending[Waiter]) -> bool:
+    """Whether a delivery awaiting its reply was sent with a callback (the dispatcher's path)."""
+    return pending.token is not None and not isinstance(pending.token, asyncio.Future)
 
 
 class ServerConnection(asyncio.Protocol):
-    """One TCP connection of the server, in any of the three roles."""
+    """One TCP connection of the server, in any of its four roles (`Role`, OA-SESS-28)."""
 
     def __init__(
         self, host: ConnectionHost, role: Role = Role.RESPONDER, *, name: str = "CNS"
     ) -> None:
         self.host = host
-        self.role = role
+        #: The connection's rules: role, pairing, out-of-turn answers (sans-I/O, shared).
+        self.machine: Connection[Waiter] = Connection(role, rules=SERVER_RULES)
         self.name = name  # `from` of the replies the adapter makes itself
         self.conn_id = -1
         self.module = ""  # the module this CALLBACK or OUTBOUND connection serves
@@ -164,7 +153,6 @@ class ServerConnection(asyncio.Protocol):
         self.closed = asyncio.get_running_loop().create_future()
         self._reader = FrameReader(host.limits.frame_limits())
         self._xml_limits: XmlLimits = host.limits.xml_limits()
-        self._pending: deque[_Pending] = deque()
         self._closing = False
         self._reading_paused = False
         self._written = 0
@@ -188,6 +176,15 @@ class ServerConnection(asyncio.Protocol):
         self._eof = False  # the peer closed its side while a request was being decoded
         # The bytes-level data path offered every read first (issue #20); None: the reference.
         self._datapath: DataPath | None = datapath_of(host)
+
+    @property
+    def role(self) -> Role:
+        """The connection's role (OA-SESS-28), as the machine has it."""
+        return self.machine.role
+
+    @role.setter
+    def role(self, role: Role) -> None:
+        self.machine.assume(role)
 
     # -- transport callbacks ------------------------------------------------------------------
 
@@ -303,8 +300,8 @@ class ServerConnection(asyncio.Protocol):
             if handle is not None:
                 handle.cancel()
         reason = f"connection lost: {exc}" if exc else "connection closed"
-        while self._pending:
-            self._pending.popleft().fail(ConnectionClosedError(reason))
+        for pending in self.machine.peer_closed():
+            _fail(pending.token, ConnectionClosedError(reason))
         if self.role is not Role.OUTBOUND:
             self.host.connection_lost(self)
         if not self.closed.done():
@@ -437,10 +434,10 @@ class ServerConnection(asyncio.Protocol):
         if outcome.close_this:
             self.close()
         elif outcome.push_stream:
-            self.role = Role.PUSH  # 11.6: the server is the requester now (OA-SESS-28)
+            self.machine.turn(Role.PUSH)  # 11.6: the server is the requester now (OA-SESS-28)
             self.module = msg.sender
         elif frame.tag is FrameTag.RECEIVE and _is_notification(msg, outcome):
-            self.role = Role.CALLBACK  # OA-SESS-7, OA-SESS-28: the server is the requester now
+            self.machine.turn(Role.CALLBACK)  # OA-SESS-7, OA-SESS-28: the server requests now
             self.module = msg.sender
             self.host.callback_opened(self, msg.sender)
             self._arm_keepalive()
@@ -453,37 +450,34 @@ class ServerConnection(asyncio.Protocol):
             self._log_error(exc)
             self._resolve(None, exc)  # an unreadable reply is still the reply (OA-SESS-33)
             return
-        answer = _ANSWERS.get(msg.type)
-        if answer is not None and not msg.isresponse:
-            self._send(msg.reply(answer, sender=self.name))  # OA-SESS-10, OA-KEEP-2
+        if self.machine.is_out_of_turn(msg):
+            self._send(msg.reply(answer_type(msg.type), sender=self.name))  # OA-SESS-10, KEEP-2
             return
         self._resolve(msg, None)
 
     def _resolve(self, msg: Message | None, error: Exception | None) -> None:
-        """Hand a reply (or its decode error) to the oldest pending request."""
-        # OA-KEEP-3: an unanswered KEEPALIVE never blocks the pairing of later replies.
-        keepalive_reply = msg is not None and msg.type == "KEEPALIVESUCCESS"
-        while self._pending and self._pending[0].type == "KEEPALIVE" and not keepalive_reply:
-            self._pending.popleft().fail(asyncio.CancelledError())
-        if not self._pending:
+        """Hand a reply (or its decode error) to the delivery it answers (`SERVER_RULES`)."""
+        paired = self.machine.pair(msg)
+        for passed in paired.passed_over:  # OA-KEEP-3: never blocks the pairing of later replies
+            _fail(passed.token, asyncio.CancelledError())
+        if paired.pending is None:
             log.warning(
                 "event=protocol_error conn=%d module=%s detail=%s",
                 self.conn_id,
                 self.module,
-                "reply with no request in flight",
+                paired.note,
             )
             return
-        pending = self._pending.popleft()
-        if pending.callback is not None:
-            pending.callback(msg, error)
-            return
-        future = pending.future
-        if future is None or future.done():
-            return
-        if error is not None:
-            future.set_exception(error)
-        elif msg is not None:
-            future.set_result(msg)
+        waiter = paired.pending.token
+        if isinstance(waiter, asyncio.Future):
+            if waiter.done():
+                return
+            if error is not None:
+                waiter.set_exception(error)
+            elif msg is not None:
+                waiter.set_result(msg)
+        elif waiter is not None:
+            waiter(msg, error)
 
     # -- sending --------------------------------------------------------------------------------
 
@@ -589,8 +583,7 @@ class ServerConnection(asyncio.Protocol):
         if self._closing:
             future.set_exception(ConnectionClosedError("the connection is closed"))
             return future
-        if not msg.noreply:
-            self._pending.append(_Pending(id=msg.id, type=msg.type, future=future))
+        self.machine.send_request(msg.id, msg.type, future, expects_reply=not msg.noreply)
         if not self._send(msg, wire=wire):
             if not future.done():
                 future.set_exception(ConnectionClosedError("the connection was cut off"))
@@ -609,13 +602,12 @@ class ServerConnection(asyncio.Protocol):
         if self._closing:
             callback(None, ConnectionClosedError("the connection is closed"))
             return
-        pending = None
-        if not msg.noreply:
-            pending = _Pending(id=msg.id, type=msg.type, future=None, callback=callback)
-            self._pending.append(pending)
+        pending = self.machine.send_request(
+            msg.id, msg.type, callback, expects_reply=not msg.noreply
+        )
         if not self._send(msg, wire=wire):
             if pending is not None:
-                pending.callback = None  # it keeps its place in the pairing, but says nothing
+                pending.token = None  # it keeps its place in the pairing, but says nothing
             callback(None, ConnectionClosedError("the connection was cut off"))
         elif msg.noreply:
             callback(msg, None)
@@ -628,7 +620,7 @@ class ServerConnection(asyncio.Protocol):
     @property
     def in_flight(self) -> int:
         """How many requests sent on this connection await their reply."""
-        return len(self._pending)
+        return self.machine.in_flight
 
     @property
     def is_closing(self) -> bool:
@@ -682,7 +674,7 @@ class ServerConnection(asyncio.Protocol):
         if self._closing:
             return
         idle = time.monotonic() - self.last_traffic
-        if idle >= self.host.flow.keepalive_s and not self._pending:
+        if idle >= self.host.flow.keepalive_s and not self.machine.in_flight:
             now = AirTime.from_ns(time.time_ns())
             future = self.send_request(Message(type="KEEPALIVE", posted=now))  # OA-KEEP-1
             future.add_done_callback(_consume)

@@ -27,7 +27,7 @@ from openair.server.aio.datapath.base import (
     MESSAGE_TAG,
     RESPLICE_MAX,
 )
-from openair.server.aio.protocol import OFF_LOOP_XML, Role
+from openair.server.aio.protocol import OFF_LOOP_XML, Role, is_callback
 
 if TYPE_CHECKING:
     from openair.server.aio.protocol import ServerConnection
@@ -141,7 +141,7 @@ def _callback_next(conn: ServerConnection) -> bool:
     expects PING_SUCCESS, so a RECEIVE_ACCEPT answering it is a refusal whose text the
     dispatcher logs: that one goes to the decoder.
     """
-    for pending in conn._pending:
+    for pending in conn.machine.pending():
         if pending.type != "KEEPALIVE":
-            return pending.callback is not None and pending.type != "PING"
+            return is_callback(pending) and pending.type != "PING"
     return False

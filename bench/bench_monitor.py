@@ -34,6 +34,7 @@ from bench.bench_server import _CTX, Flow, _flow, _pin_load, _process, _server_a
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
 from openair.server.aio.app import ServerOptions, start_server
+from openair.server.core.router import Router
 from openair_monitor import Monitor
 from openair_monitor.messages import MessageFilter
 
@@ -107,14 +108,13 @@ class _NullConn:
         pass
 
 
-def _handle(mon: Monitor, msg: Message) -> None:
+def _handle(router: Router, msg: Message) -> None:
     now = time.time_ns()
-    mon.server.router.handle(1000, msg, tag=FrameTag.MESSAGE, received_ns=now, now_ns=now)
+    router.handle(1000, msg, tag=FrameTag.MESSAGE, received_ns=now, now_ns=now)
 
 
-def _bind_subscriber(mon: Monitor) -> None:
+def _bind_subscriber(router: Router) -> None:
     """Bind a module woken by every bench post, through the router alone (no sockets)."""
-    router = mon.server.router
     router.connection_opened(999, address="127.0.0.1")
     for msg in (
         Message(type="BIND_NOLISTEN", sender="BenchSub", to="CNS"),
@@ -136,7 +136,7 @@ async def _in_process() -> list[Result]:
     mon = server.monitor
     assert isinstance(mon, Monitor)
     try:
-        _bind_subscriber(mon)
+        _bind_subscriber(server.router)
         post = Message(type="Bench.Flow.Data", sender="Poster", to="WB1", content="x" * 200,
                        noreply=True)  # fmt: skip
         items = [post] * 200
@@ -144,9 +144,9 @@ async def _in_process() -> list[Result]:
         off = on = float("inf")
         for _ in range(5):  # interleaved, so that the machine's other load hits both alike
             router.observer = None
-            off = min(off, per_call(lambda m: _handle(mon, m), items, repeat=2))
+            off = min(off, per_call(lambda m: _handle(router, m), items, repeat=2))
             router.observer = mon.tap.observe
-            on = min(on, per_call(lambda m: _handle(mon, m), items, repeat=2))
+            on = min(on, per_call(lambda m: _handle(router, m), items, repeat=2))
         share = _views_share(mon)
     finally:
         await server.stop()

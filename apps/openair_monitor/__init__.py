@@ -15,12 +15,12 @@ from openair_monitor.core import Monitor, MonitorOptions
 from openair_monitor.http import HttpLimits
 
 if TYPE_CHECKING:
-    from openair.server.aio.app import Server
+    from openair.observing import ObservedServer
 
 __all__ = ["HttpLimits", "Monitor", "MonitorOptions", "attach"]
 
 
-async def attach(server: Server, options: MonitorOptions | None = None) -> Monitor:
+async def attach(server: ObservedServer, options: MonitorOptions | None = None) -> Monitor:
     """Attach a started monitor to `server`, as its ServerOptions say (post, hosts, HTTP port)."""
     opts = server.options
     monitor = Monitor(

@@ -31,7 +31,7 @@ from openair_monitor.sse import Broadcaster
 from openair_monitor.tap import RateMeter, Tap
 
 if TYPE_CHECKING:
-    from openair.server.aio.app import Server
+    from openair.observing import ObservedServer
 
 __all__ = ["Monitor", "MonitorOptions"]
 
@@ -64,7 +64,7 @@ class Monitor:
 
     def __init__(
         self,
-        server: Server,
+        server: ObservedServer,
         options: MonitorOptions | None = None,
         *,
         post: bool = False,

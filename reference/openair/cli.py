@@ -19,6 +19,8 @@ from typing import Any, NoReturn
 
 import click
 
+from openair.extras import OPTIONAL, install_hint, missing_extra
+
 __all__ = ["ENTRY_POINT_GROUP", "OPTIONAL", "main", "missing_extra"]
 
 #: Command name -> "module:attribute".
@@ -42,23 +44,8 @@ def _targets() -> dict[str, str]:
     return found
 
 
-#: Optional top-level packages -> the extra of openair-kit that installs them (pyproject.toml).
-OPTIONAL = {
-    "hypothesis": "fuzz",
-    "xmlschema": "worldmodel",
-    "selenium": "browser",
-    "h11": "monitor",  # the web monitor's HTTP (`openair monitor FILE`, `openair serve`)
-    "graphviz": "ontology",  # `openair ontology` diagrams
-}
-
 #: Exit code of a command whose optional dependency is not installed (a usage error).
 EXIT_MISSING = 2
-
-
-def missing_extra(exc: ModuleNotFoundError) -> str | None:
-    """Return the extra that provides the missing module of `exc`, or None (a real error)."""
-    top = (exc.name or "").partition(".")[0]
-    return OPTIONAL.get(top)
 
 
 def _unavailable(name: str, package: str, extra: str) -> click.Command:
@@ -66,8 +53,7 @@ def _unavailable(name: str, package: str, extra: str) -> click.Command:
 
     def run() -> NoReturn:
         click.echo(
-            f"openair {name}: needs {package}, which is not installed: "
-            f"pip install 'openair-kit[{extra}]'",
+            f"openair {name}: needs {package}, which is not installed: {install_hint(extra)}",
             err=True,
         )
         raise click.exceptions.Exit(EXIT_MISSING)
@@ -75,7 +61,7 @@ def _unavailable(name: str, package: str, extra: str) -> click.Command:
     return click.Command(
         name,
         callback=run,
-        help=f"(not available: pip install 'openair-kit[{extra}]')",
+        help=f"(not available: {install_hint(extra)})",
         context_settings={"ignore_unknown_options": True, "allow_extra_args": True},
         add_help_option=False,
     )

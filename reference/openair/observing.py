@@ -1,22 +1,47 @@
-"""What a server shows the applications attached to it: the observer interface.
+"""What a server shows the applications attached to it: the observer interface (issue #17).
 
-The reference server exports this interface (`Server.observe`, server/aio/app.py) so that the
-applications beside the protocol core (the web monitor, a recorder) watch it without reaching
-into its modules: they see each stored post with the deliveries it caused (`Delivered`), and
-each delivery a module acknowledged (`Acknowledged`). Both are read-only views; the server's
-own records (router `Delivery`, queue `QueueItem`) satisfy them. `message_bytes` is the size
-estimate the server and its observers share for a message they hold (issue #19).
+The reference server exports this interface so that the applications beside the protocol core
+(apps/: the web monitor `openair_monitor`, ...) watch it without importing any of its modules.
+An application is named in the entry point group `openair.server.attachments`; the server calls
+it once when it starts, with itself as an `ObservedServer`, and closes what it returns.
 
-Observers run inside the post path: they must do O(1) work and never raise.
+- `ServerObserver`, attached with `ObservedServer.observe`, sees each stored post with the
+  deliveries it caused (`Delivered`) and each delivery a module acknowledged (`Acknowledged`).
+  Both are read-only views; the server's own records (router `Delivery`, queue `QueueItem`)
+  satisfy them. Observers run inside the post path: they must do O(1) work and never raise.
+- `ObservedServer` is what else an application may read: where the server listens, its
+  extensions, whiteboards and counters, and look-ups by name in its tables (`ServerTables`:
+  a whiteboard's stored posts, a bound module's session, a registration); and `inject`, which
+  routes a post that came from no connection (the monitor's post form).
+- `message_bytes` is the size estimate the server and its observers share for a message they
+  hold (issue #19).
+
+The reference `Server` (server/aio/app.py) satisfies `ObservedServer` as it is: mypy checks that
+in tests/layering/test_layering_apps.py, which also keeps the applications off the server.
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+from collections.abc import Callable, Iterator
+from typing import Protocol, runtime_checkable
 
+from openair.protocol.content import Registration
 from openair.protocol.message import Message
 
-__all__ = ["ENVELOPE_BYTES", "Acknowledged", "Delivered", "ServerObserver", "message_bytes"]
+__all__ = [
+    "ENVELOPE_BYTES",
+    "Acknowledged",
+    "AttachOptions",
+    "BoundModule",
+    "Delivered",
+    "Injected",
+    "NamedSystem",
+    "ObservedServer",
+    "ServerObserver",
+    "ServerTables",
+    "StoredBoard",
+    "message_bytes",
+]
 
 #: What a message's envelope takes besides its text slots and chunks, as an estimate.
 ENVELOPE_BYTES = 512
@@ -59,6 +84,130 @@ class ServerObserver(Protocol):
 
     def delivered(self, module: str, item: Acknowledged) -> None:
         """`module` acknowledged the delivery `item`."""
+
+
+# -- what an attached application may read of the server (issue #17) -----------------------
+
+
+class StoredBoard(Protocol):
+    """A whiteboard as an observer reads it: its limits, its numbering, its stored posts."""
+
+    @property
+    def maxcount(self) -> int: ...
+
+    @property
+    def priority(self) -> float: ...
+
+    @property
+    def next_wbid(self) -> int:
+        """The wbid the next stored post gets (OA-WB-5)."""
+
+    def __len__(self) -> int: ...
+
+    def newest_first(self) -> Iterator[Message]:
+        """The stored posts, newest first (a snapshot iterator; never blocks routing)."""
+
+
+class BoundModule(Protocol):
+    """A bound module's session (spec 6): its connections, port, address and extensions."""
+
+    @property
+    def conn(self) -> int | None: ...
+
+    @property
+    def callback(self) -> int | None: ...
+
+    @property
+    def port(self) -> int: ...
+
+    @property
+    def address(self) -> str: ...
+
+    @property
+    def extensions(self) -> frozenset[str]: ...
+
+
+class ServerTables(Protocol):
+    """Look-ups in the server's tables by name (`ObservedServer.router`): None when unknown."""
+
+    @property
+    def server_name(self) -> str:
+        """The implementation and version (OA-CAP-1)."""
+
+    @property
+    def started_ns(self) -> int | None: ...
+
+    def whiteboard(self, name: str) -> StoredBoard | None: ...
+
+    def module(self, name: str) -> BoundModule | None: ...
+
+    def registration(self, name: str) -> Registration | None: ...
+
+
+class Injected(Protocol):
+    """What `ObservedServer.inject` returns: the replies to the injected post."""
+
+    @property
+    def replies(self) -> tuple[Message, ...]: ...
+
+
+class AttachOptions(Protocol):
+    """The server's options an attached monitor reads (`openair serve` flags, spec 15.2)."""
+
+    @property
+    def host(self) -> str: ...
+
+    @property
+    def http_port(self) -> int | None: ...
+
+    @property
+    def monitor_post(self) -> bool: ...
+
+    @property
+    def monitor_hosts(self) -> tuple[str, ...]: ...
+
+
+class NamedSystem(Protocol):
+    """The server's configuration as observers see it: its system name (psySpec `name`)."""
+
+    @property
+    def name(self) -> str: ...
+
+
+@runtime_checkable
+class ObservedServer(Protocol):
+    """What an application attached to a server (entry point group `openair.server.attachments`)
+    may use: it is called with the server as this, once, when the server starts."""
+
+    @property
+    def host(self) -> str: ...
+
+    @property
+    def port(self) -> int: ...
+
+    @property
+    def extensions(self) -> frozenset[str]: ...
+
+    @property
+    def whiteboards(self) -> tuple[str, ...]: ...
+
+    @property
+    def options(self) -> AttachOptions: ...
+
+    @property
+    def config(self) -> NamedSystem: ...
+
+    @property
+    def router(self) -> ServerTables: ...
+
+    def counters(self) -> dict[str, object]:
+        """Nested counters: `whiteboards`, `modules`, `queues`, `streams` tables and totals."""
+
+    def observe(self, observer: ServerObserver) -> Callable[[], None]:
+        """Attach `observer`; return the function that detaches it."""
+
+    def inject(self, msg: Message, *, received_ns: int) -> Injected:
+        """Route `msg` as a post that came from no connection (the monitor's post form)."""
 
 
 def message_bytes(message: Message, wire: bytes | tuple[bytes, ...] | None) -> int:

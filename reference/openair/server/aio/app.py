@@ -26,6 +26,7 @@ from importlib.metadata import entry_points
 from typing import Protocol
 
 import openair
+from openair.extras import install_hint, missing_extra
 from openair.observing import ServerObserver
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
@@ -75,11 +76,28 @@ _STAGE_S = 2.0  # the longest one shutdown stage after the grace period may take
 ATTACHMENTS = "openair.server.attachments"
 
 
-async def _attach(name: str, server: Server) -> MonitorHook | None:
-    """Start the installed application `name` on `server` (None when none is installed)."""
+#: An installed application's entry point: called once with the started server.
+Attach = Callable[["Server"], Coroutine[object, object, "MonitorHook"]]
+
+
+def _attachment(name: str) -> Attach | None:
+    """Load the installed application `name`; None when none is installed or its extra is
+    missing (then the server runs without it and says which extra to install)."""
     for entry in entry_points(group=ATTACHMENTS, name=name):
-        hook: MonitorHook = await entry.load()(server)
-        return hook
+        try:
+            attach: Attach = entry.load()
+        except ModuleNotFoundError as exc:
+            extra = missing_extra(exc)
+            if extra is None:
+                raise
+            log.warning(
+                "event=attachment_unavailable name=%s missing=%s install=%s",
+                name,
+                exc.name,
+                install_hint(extra),
+            )
+            return None
+        return attach
     log.warning("event=attachment_missing name=%s group=%s", name, ATTACHMENTS)
     return None
 
@@ -152,7 +170,12 @@ class Server:
         wanted = options.extensions | {"monitor"} if options.monitor else options.extensions
         if options.auth_secrets is not None:  # OA-AUTH-1, OA-AUTH-11: `auth`, no monitor
             wanted = (wanted - {"monitor"}) | {"auth"}
-        self.extensions = _extensions(wanted, store)  # OA-EXT-1: `monitor` with the web monitor
+        # OA-EXT-1: `monitor` only with a web monitor installed (the `monitor` extra, issue #17)
+        monitor = options.monitor and "monitor" in wanted
+        self._attach_monitor = _attachment("monitor") if monitor else None
+        if monitor and self._attach_monitor is None:
+            wanted = wanted - {"monitor"}
+        self.extensions = _extensions(wanted, store)
         self.router: Router
         self.internal: InternalModules | None = None  # the modules run inside (OA-CONF-8)
         self._listener: asyncio.Server | None = None
@@ -459,8 +482,8 @@ class Server:
         if "typed-streams" in self.extensions:
             self._ticker = asyncio.get_running_loop().call_later(_TICK_S, self._tick)
         self._sweep()
-        if self.options.monitor and "monitor" in self.extensions:  # OA-AUTH-11
-            self.monitor = await _attach("monitor", self)
+        if self._attach_monitor is not None and "monitor" in self.extensions:  # OA-AUTH-11
+            self.monitor = await self._attach_monitor(self)
         await self._listener.start_serving()
         log.info(
             "event=listening host=%s port=%d whiteboards=%s extensions=%s",

@@ -27,7 +27,7 @@ from openair.protocol.errors import MessageInvalidError, TypeInvalidError
 from openair.protocol.matching import ascii_fold
 from openair.protocol.message import Message
 from openair.server.aio import delivery
-from openair.server.core import commands, router, sessions, whiteboard
+from openair.server.core import commands, router, router_commands, sessions, whiteboard
 from openair.server.core.router import Outcome, Router
 
 # --- retrieve content (9.2) ----------------------------------------------------------------------
@@ -153,7 +153,7 @@ def _resolve_port(mp: pytest.MonkeyPatch) -> None:
 
         return encode
 
-    wrap(mp, router, "encode_tcplocation", make)
+    wrap(mp, router_commands, "encode_tcplocation", make)
 
 
 @mutant(

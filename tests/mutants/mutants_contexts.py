@@ -14,7 +14,7 @@ from mutants_core import Fn, mutant, wrap
 
 from openair.protocol.content import Phase, Registration
 from openair.protocol.message import Message
-from openair.server.core import contexts, router
+from openair.server.core import contexts, router_registrations
 from openair.server.core.contexts import Contexts
 from openair.server.core.router import Delivery, Router
 from openair.server.core.whiteboard import Whiteboard
@@ -126,14 +126,14 @@ def _no_phase_update(mp: pytest.MonkeyPatch) -> None:
     cases=_CASES,
 )
 def _update_default_phase(mp: pytest.MonkeyPatch) -> None:
-    original = router.build_wakeup
+    original = router_registrations.build_wakeup
 
     def build(**kwargs: Any) -> Message:
         if kwargs.get("phase") is None:
             kwargs["phase"] = Phase()
         return original(**kwargs)
 
-    mp.setattr(router, "build_wakeup", build)
+    mp.setattr(router_registrations, "build_wakeup", build)
 
 
 @mutant("ctx-phasechange-ignored", "PhaseChange does not advance", "OA-REG-17", cases=_CASES)

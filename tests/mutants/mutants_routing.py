@@ -32,7 +32,7 @@ from openair.protocol.content import Phase, Registration, RegistrationForm
 from openair.protocol.errors import MessageInvalidError
 from openair.protocol.message import Message, new_id
 from openair.protocol.xmlsafe import local_name
-from openair.server.core import commands, router
+from openair.server.core import commands, router, router_registrations
 from openair.server.core.contexts import Contexts
 from openair.server.core.router import Delivery, Outcome, Router
 from openair.server.core.whiteboard import Whiteboard
@@ -120,6 +120,7 @@ def _after_ignored(mp: pytest.MonkeyPatch) -> None:
 @mutant("trigger-from-case-sensitive", "a trigger's from compares case-sensitively", "OA-TRIG-2")
 def _trigger_from_case(mp: pytest.MonkeyPatch) -> None:
     mp.setattr(router, "ascii_fold", lambda text: text)
+    mp.setattr(router_registrations, "ascii_fold", lambda text: text)
 
 
 @mutant(
@@ -210,7 +211,7 @@ def _registration_patch(
 
         return parse
 
-    wrap(mp, router, "parse_registration", make)
+    wrap(mp, router_registrations, "parse_registration", make)
 
 
 @mutant("self-trigger-always", "a module's own posts always trigger it", "OA-TRIG-4")
@@ -270,7 +271,7 @@ def _max_triggers(mp: pytest.MonkeyPatch) -> None:
 
         return parse
 
-    wrap(mp, router, "parse_registration", make)
+    wrap(mp, router_registrations, "parse_registration", make)
 
 
 @mutant(

@@ -18,9 +18,11 @@ from mutants_core import Fn, mutant, wrap
 from openair.protocol.datasample import chunk_parts
 from openair.protocol.message import Message
 from openair.server.aio import delivery, pusher
-from openair.server.core import streamservice
-from openair.server.core.streams import AddResult, Alarm, SampleBuffer, StoredSample, Stream
+from openair.server.core import streamservice, streamwire
+from openair.server.core.samplebuffer import SampleBuffer
+from openair.server.core.streams import Stream
 from openair.server.core.streamservice import StreamService
+from openair.server.core.streamspec import AddResult, Alarm, StoredSample
 
 # --- the ring and its ids (11.1) -----------------------------------------------------------------
 
@@ -119,7 +121,8 @@ def _chunk_nul_optional(mp: pytest.MonkeyPatch) -> None:
 
         return decode_chunk
 
-    wrap(mp, streamservice, "decode_chunk", make)
+    wrap(mp, streamservice, "decode_chunk", make)  # BinaryM samples
+    wrap(mp, streamwire, "decode_chunk", make)  # ADD_SAMPLE(S)
 
 
 # --- reading and waiting (11.4, 11.5) ---------------------------------------------------------

@@ -19,7 +19,7 @@ from openair.protocol.message import Message
 from openair.protocol.objects import encode_message_collection, parse_message_collection
 from openair.server.core import commands as commands_module
 from openair.server.core import retrieve as retrieve_module
-from openair.server.core import router as router_module
+from openair.server.core import router_commands as router_module
 from openair.server.core.retrieve import PreparedRetrieve, answer_retrieve, prepare_retrieve
 from openair.server.core.store import MemoryStore
 from openair.server.core.whiteboard import Whiteboard

@@ -8,7 +8,9 @@ from hypothesis import strategies as st
 
 from openair.protocol.datasample import DataSample
 from openair.protocol.errors import ApiMisuseError
-from openair.server.core.streams import SampleBuffer, StoredSample, Stream, StreamSpec
+from openair.server.core.samplebuffer import SampleBuffer
+from openair.server.core.streams import Stream
+from openair.server.core.streamspec import StoredSample, StreamSpec
 
 
 def stored(n: int) -> list[StoredSample]:

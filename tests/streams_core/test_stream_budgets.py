@@ -6,8 +6,10 @@ import pytest
 
 from openair.protocol.datasample import DataSample
 from openair.protocol.errors import LimitExceededError
-from openair.server.core.streams import SampleBuffer, StoredSample, Stream, StreamSpec
+from openair.server.core.samplebuffer import SampleBuffer
+from openair.server.core.streams import Stream
 from openair.server.core.streamservice import StreamService
+from openair.server.core.streamspec import StoredSample, StreamSpec
 
 KIB = 1024
 

@@ -7,7 +7,8 @@ import pytest
 from openair.protocol.datasample import DataSample, decode_chunk, encode_chunk
 from openair.protocol.errors import ApiMisuseError, ContentInvalidError, SampleInvalidError
 from openair.server.core.config import StreamConfig
-from openair.server.core.streams import StoredSample, Stream, StreamSpec
+from openair.server.core.streams import Stream
+from openair.server.core.streamspec import StoredSample, StreamSpec
 
 MS = 1_000_000  # ns per ms
 

@@ -11,7 +11,8 @@ from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, pr
 
 from openair.protocol.datasample import DataSample
 from openair.protocol.errors import SampleInvalidError
-from openair.server.core.streams import StoredSample, Stream, StreamSpec
+from openair.server.core.streams import Stream
+from openair.server.core.streamspec import StoredSample, StreamSpec
 
 MS = 1_000_000
 # The retrieve globs the search rule uses, and what each means for a tag (OA-RET-8).

@@ -7,7 +7,8 @@ import pytest
 from openair.protocol.datasample import DataSample
 from openair.protocol.errors import ContentInvalidError, SampleInvalidError
 from openair.server.core.config import StreamConfig
-from openair.server.core.streams import AddResult, Alarm, Stream, StreamSpec
+from openair.server.core.streams import Stream
+from openair.server.core.streamspec import AddResult, Alarm, StreamSpec
 
 MS = 1_000_000  # ns per ms
 T0 = 1_700_000_000_000  # ms since the epoch

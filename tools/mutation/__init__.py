@@ -16,7 +16,13 @@ _AIO = "reference/openair/server/aio/"
 
 #: The modules issue 15 names, by the area they implement; the report groups rows by these.
 MODULE_GROUPS: dict[str, tuple[str, ...]] = {
-    "routing": (_CORE + "router.py",),
+    "routing": (
+        _CORE + "router.py",
+        _CORE + "router_commands.py",
+        _CORE + "router_registrations.py",
+        _CORE + "router_state.py",
+        _CORE + "router_streams.py",
+    ),
     "whiteboard": (_CORE + "whiteboard.py",),
     "retrieve": (_CORE + "retrieve.py",),
     "registration": ("reference/openair/protocol/registration.py",),

@@ -14,8 +14,9 @@ import time
 
 from openair.protocol.message import Message
 from openair.server.aio.protocol import ServerConnection
-from openair.server.core.streams import SampleBuffer, StoredSample
-from openair.server.core.streamservice import push_frame, push_message
+from openair.server.core.samplebuffer import SampleBuffer
+from openair.server.core.streamspec import StoredSample
+from openair.server.core.streamwire import push_frame, push_message
 
 __all__ = ["Pusher"]
 

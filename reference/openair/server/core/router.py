@@ -14,32 +14,25 @@ woken module (OA-WAKE-5).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
-from openair.protocol.auth import AUTH_ACCEPT, AUTH_NONCE
-from openair.protocol.content import ANY_WHITEBOARD, Dictionary, Phase, Registration, TcpLocation
+from openair.protocol.content import Phase, Registration
 from openair.protocol.errors import (
-    BindRefusedError,
     LimitExceededError,
-    MessageInvalidError,
     OpenAIRError,
     ShuttingDownError,
     StoreFailedError,
-    StreamUnknownError,
     TypeInvalidError,
 )
 from openair.protocol.framing import FrameTag
 from openair.protocol.matching import PatternIndex, ascii_fold
 from openair.protocol.message import Message
-from openair.protocol.objects import encode_dictionary, encode_tcplocation
-from openair.protocol.registration import parse_registration
 from openair.protocol.times import AirTime
 from openair.protocol.types import validate_type
 from openair.protocol.wakeup import (
     EncodedCopies,
     assemble_wakeup,
     attach_wakeup,
-    build_wakeup,
     collection_xml,
     fit_attachments,
     phase_spec_xml,
@@ -49,26 +42,27 @@ from openair.server.core.auth import AuthGate
 from openair.server.core.config import (
     AIRCENTRAL,
     DEFAULT_WB_PRIORITY,
-    SYSTEM_COMPONENTS,
-    ConfigError,
     ServerConfig,
     ServerLimits,
 )
-from openair.server.core.contexts import PHASE_CHANGE, Contexts, context_of
+from openair.server.core.contexts import PHASE_CHANGE, Contexts
+from openair.server.core.outcome import Delivery, Outcome
 from openair.server.core.queues import item_bytes
 from openair.server.core.retrieve import RETRIEVE, RETRIEVES, prepare_retrieve, registration_results
+from openair.server.core.router_commands import ComponentCommands
+from openair.server.core.router_registrations import Registrations
+from openair.server.core.router_state import IndexedTriggers, ModuleCounters
+from openair.server.core.router_streams import StreamRouting, stream_specs
 from openair.server.core.sessions import ConnId, ModuleInfo, Sessions
 from openair.server.core.store import HistoryStore
-from openair.server.core.streams import Alarm, StreamSpec
 from openair.server.core.streamservice import (
     PendingWait,
     SamplePush,
-    StreamOutcome,
     StreamService,
     WaitReply,
     is_media_command,
 )
-from openair.server.core.whiteboard import Whiteboard, derive
+from openair.server.core.whiteboard import Whiteboard
 
 __all__ = [
     "ConnId",
@@ -85,80 +79,15 @@ _NS_PER_MS = 1_000_000
 _TYPE_CACHE_SIZE = 4096
 _PHASE_CACHE_SIZE = 256  # PhaseSpec texts kept per registration (one per lasttrigger)
 _SYSTEM = "Psyclone"  # the sender of lifecycle notices (OA-SESS-15, OA-SESS-31)
-_PHASE_SENDER = "ContextsAndPhases"  # the sender of phase updates (OA-WAKE-9)
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
-class Delivery:
-    """A message to queue for one module (6.6): due at `due_ns`, ordered by priority (10)."""
+class Router(ComponentCommands, StreamRouting, Registrations):
+    """The whole server behind the sockets (spec sections 6–10, 15).
 
-    module: str
-    message: Message
-    due_ns: int
-    priority: float  # the carried message's effective priority (OA-PRIO-1)
-    wb_priority: float  # the sending whiteboard's priority (OA-PRIO-2)
-    # The Message frame of `message` when the router already wrote it (a wakeup), else None.
-    wire: bytes | None = field(default=None, compare=False, repr=False)
-    expires_ns: int = 0  # OA-DELIV-14: dropped when still unsent at this time (0: never)
-    # A wakeup's stored trigger message, for internal modules (OA-CONF-8: no XML to parse).
-    trigger: Message | None = field(default=None, compare=False, repr=False)
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class Outcome:
-    """What the adapter does after one event.
-
-    `discard_queues` names modules whose session ended (OA-SESS-15): drop their queued
-    deliveries.
+    Assembled from parts (`router_state` says how): the component commands, stream requests
+    and registrations live in `router_commands`, `router_streams` and `router_registrations`;
+    here are the dispatch, the posts and the wakeups they decide.
     """
-
-    replies: tuple[Message, ...] = ()
-    deliveries: tuple[Delivery, ...] = ()
-    close_conns: tuple[ConnId, ...] = ()
-    close_this: bool = False
-    discard_queues: tuple[str, ...] = ()
-    # Streams (spec 11): this request's reply is deferred (a WAIT_FOR_*, OA-STREAM-7); deferred
-    # replies now ready, on any connection; samples to push (OA-STREAM-8, OA-STREAM-14); and the
-    # stream this connection now receives pushes from (its Receive frame, 11.6).
-    wait: PendingWait | None = None
-    resolved: tuple[WaitReply, ...] = ()
-    pushes: tuple[SamplePush, ...] = ()
-    push_stream: str = ""
-    # A reply too large to write on the event loop (issue #19, item 6): instead of `replies`,
-    # a function that builds it and its frame on any thread. Only with `defer_large_replies`.
-    later: Callable[[], tuple[Message, bytes | None]] | None = None
-
-
-#: STATUS with counters of at least this many module names is written off the loop (issue #19).
-_LARGE_STATUS = 2048
-
-
-@dataclass(slots=True)
-class _Triggers:
-    """The indexed triggers of one module's registration in force."""
-
-    registration: Registration
-    # Per trigger: its pattern, its whiteboard folded ("" = any, OA-TRIG-2), its after (ms).
-    entries: tuple[tuple[str, str, int], ...]
-    allow_self: bool
-    phase: Phase | None  # the registration's phase in force (OA-REG-10)
-    # PhaseSpec XML of the phase in force, by lasttrigger (the registration never changes here).
-    phase_xml: dict[str, str] = field(default_factory=dict)
-
-
-@dataclass(slots=True)
-class _ModuleCounters:
-    requests: int = 0  # requests whose `from` named the module while it was bound
-    queued: int = 0  # deliveries the router decided for it
-    delivered: int = 0  # note_delivered()
-    dropped: int = 0  # note_dropped()
-
-
-Handler = Callable[[ConnId, Message, int, int], Outcome]
-
-
-class Router:
-    """The whole server behind the sockets (spec sections 6–10, 15)."""
 
     def __init__(
         self,
@@ -201,7 +130,7 @@ class Router:
         }
         typed = "typed-streams" in extensions
         self.streams = StreamService(
-            _stream_specs(config, typed=typed),
+            stream_specs(config, typed=typed),
             typed=typed,
             noreply=self._noreply,
             max_wait_ms=limits.max_wait_ms,
@@ -213,9 +142,9 @@ class Router:
         self._modules = self._sessions.modules  # the same dict: bound modules by name
         self._subscribed: dict[str, Registration] = {}  # AIR.Subscribe wins over the config
         self._index: PatternIndex[tuple[str, int]] = PatternIndex()
-        self._triggers: dict[str, _Triggers] = {}
+        self._triggers: dict[str, IndexedTriggers] = {}
         self._valid_types: set[str] = set()
-        self._counters: dict[str, _ModuleCounters] = {}
+        self._counters: dict[str, ModuleCounters] = {}
         self._gone: dict[str, int] = {}  # unbound names with counters -> when they were seen gone
         self._lost_notices = 0
         self._copies = EncodedCopies()
@@ -300,10 +229,6 @@ class Router:
         """Return the whiteboard `name` (exact case, OA-WB-10), or None."""
         return self._whiteboards.get(name)
 
-    def registration(self, name: str) -> Registration | None:
-        """Return the registration in force for `name`: subscribed, else configured."""
-        return self._subscribed.get(name) or self._configured.get(name)
-
     def note_delivered(self, module: str) -> None:
         """Count one delivery the adapter completed for `module`."""
         self._module_counters(module).delivered += 1
@@ -311,52 +236,6 @@ class Router:
     def note_dropped(self, module: str, n: int = 1) -> None:
         """Count deliveries the adapter dropped for `module` (OA-DELIV-7, OA-DELIV-9)."""
         self._module_counters(module).dropped += n
-
-    def counters(self) -> dict[str, object]:
-        """Return counters per whiteboard and per module, and a registration summary."""
-        boards = {
-            wb.name: {
-                "received": wb.received,
-                "stored": wb.stored,
-                "dispatched": wb.dispatched,
-                "evicted": wb.evicted,
-                "count": len(wb),
-                "next_wbid": wb.next_wbid,
-            }
-            for wb in self._whiteboards.values()
-        }
-        modules = {
-            name: {
-                "bound": name in self._modules,
-                "requests": c.requests,
-                "queued": c.queued,
-                "delivered": c.delivered,
-                "dropped": c.dropped,
-            }
-            for name, c in sorted(self._counters.items())
-        }
-        registrations = {
-            name: {"triggers": len(t.entries), "retrieves": len(t.registration.retrieves)}
-            for name, t in sorted(self._triggers.items())
-        }
-        streams = {
-            name: {
-                **stream.info(),
-                "added": stream.added_total,
-                "dropped": stream.dropped_total,
-                "subscribers": self.streams.subscribers(name),
-            }
-            for name, stream in self.streams.streams.items()
-        }
-        return {
-            "whiteboards": boards,
-            "streams": streams,
-            "modules": modules,
-            "registrations": registrations,
-            "bound": len(self._modules),
-            "triggers": len(self._index),
-            "notices_failed": self._lost_notices,
-        }
 
     def shutting_down(self) -> None:
         """Refuse every later request with SHUTTING_DOWN and close its connection (OA-SESS-24)."""
@@ -399,45 +278,6 @@ class Router:
         """Answer SHUTTING_DOWN and close the connection (OA-SESS-24)."""
         err = ShuttingDownError("the server is shutting down")
         return Outcome(replies=(self._error(msg, err, "CNS", now_ns),), close_this=True)
-
-    def _component_tables(self) -> dict[str, dict[str, Handler]]:
-        """Return each system component's commands (spec 6.2)."""
-        session = {"PING": self._ping, "KEEPALIVE": self._keepalive}  # OA-SESS-10, OA-KEEP-2
-        cns: dict[str, Handler] = {
-            **session,
-            "BIND": self._bind,
-            "BIND_NOLISTEN": self._bind,
-            "RECEIVE_NAME_NOTIFICATION": self._notification_in_message,
-            "RESOLVE_REQUEST": self._resolve,
-            "GET_STREAMS": self._get_streams,
-            "STATUS": self._status,
-            "GET_CAPABILITIES": self._capabilities,
-        }
-        if "gettime" in self.extensions:
-            cns["GET_TIME"] = self._time  # OA-EXT-2 (only when advertised, OA-CAP-3)
-        if self._auth is not None:  # OA-AUTH-2, OA-AUTH-3; legacy: UNKNOWN_COMMAND
-            cns["AUTH_CHALLENGE"] = self._auth_challenge
-            cns["AUTH_RESPONSE"] = self._auth_response
-        return {
-            "CNS": cns,
-            "Config": {**session, "GET_ENTRY": self._entry},
-            "Psyclone": {
-                **session,
-                "Psyclone.Module.Request.CurrentPhase": self._current_phase,
-                **(
-                    {"Psyclone.System.Create.Stream": self._create_stream}
-                    if self.streams.typed
-                    else {}
-                ),
-            },
-            "AIRServer": {
-                **session,
-                "GET_ID": self._get_id,
-                "GET_NAME": self._get_name,
-                "System.PerfStat": self._perfstat,
-            },
-            "ContextsAndPhases": dict(session),
-        }
 
     def _to_whiteboard(
         self, board: Whiteboard, msg: Message, received_ns: int, now_ns: int
@@ -711,393 +551,24 @@ class Router:
         ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=msg.to, now_ns=now_ns)
         return Outcome(replies=(ack,), deliveries=(delivery,))
 
-    def _to_stream(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        """Answer a request to a stream: PING, KEEPALIVE and the media commands (spec 11)."""
-        if msg.type in ("PING", "KEEPALIVE"):
-            return self._session_reply(msg, msg.to, now_ns)
-        result = self.streams.request(conn, msg, received_ns=received_ns, now_ns=now_ns)
-        return self._stream_outcome(result, now_ns)
-
-    def handle_binary(
-        self, conn: ConnId, chunk: bytes, *, received_ns: int, now_ns: int
-    ) -> Outcome:
-        """Answer a BinaryM frame: a sample for the connection's current stream (OA-STREAM-11)."""
-        request = Message(type="BinaryOnly", id="")  # what Psyclone calls a bare BinaryM
-        if self._shutting_down:  # OA-SESS-24
-            return self._refuse_shutting_down(request, now_ns)
-        result = self.streams.binary(conn, chunk, received_ns=received_ns, now_ns=now_ns)
-        if result is None:
-            return Outcome(replies=(cmd.unknown_command(request, sender="CNS", now_ns=now_ns),))
-        return self._stream_outcome(result, now_ns)
-
-    def wait_expired(self, ticket: int, now_ns: int) -> Outcome:
-        """Answer a WAIT_FOR_* whose timeout passed (OA-STREAM-7)."""
-        ready = self.streams.wait_expired(ticket, now_ns)
-        return Outcome(resolved=(ready,)) if ready is not None else Outcome()
-
-    def tick(self, now_ns: int) -> Outcome:
-        """Post the Idle alarms that fell due (OA-XSTREAM-7); the adapter calls it on a timer."""
-        alarms = self.streams.tick(now_ns)
-        return Outcome(deliveries=self._post_alarms(alarms, now_ns)) if alarms else Outcome()
-
-    def _stream_outcome(self, result: StreamOutcome, now_ns: int) -> Outcome:
-        deliveries = self._post_alarms(result.alarms, now_ns) if result.alarms else ()
-        return Outcome(
-            replies=result.replies,
-            deliveries=deliveries,
-            wait=result.wait,
-            resolved=result.resolved,
-            pushes=result.pushes,
-        )
-
-    def _post_alarms(self, alarms: tuple[Alarm, ...], now_ns: int) -> tuple[Delivery, ...]:
-        """Post stream alarms as ordinary posts on their whiteboard (OA-XSTREAM-6)."""
-        deliveries: list[Delivery] = []
-        for alarm in alarms:
-            board = self._whiteboards.get(alarm.whiteboard)
-            if board is None:
-                continue
-            post = Message(
-                type=alarm.type,
-                sender=alarm.stream,
-                to=board.name,
-                content=encode_dictionary(Dictionary(entries=alarm.entries)),
-                content_is_xml=True,
-                language="xml",
-            )
-            deliveries.extend(self._post(board, post, now_ns, now_ns).deliveries)
-        return tuple(deliveries)
-
-    def _no_stream(self, msg: Message, now_ns: int) -> Outcome:
-        """Answer a media command: this server offers no streams (OA-GEN-4, OA-STREAM-3)."""
-        err = StreamUnknownError(f"no stream named {msg.to!r}")
-        return Outcome(replies=(self._error(msg, err, msg.to or "CNS", now_ns),))
-
     # --- registrations --------------------------------------------------------------------
 
-    def _subscribe(self, board: Whiteboard, msg: Message, now_ns: int) -> Outcome:
-        """Replace the sender's whole registration (OA-REG-1, OA-REG-7, OA-REG-8)."""
-        try:
-            reg = parse_registration(msg.sender, msg.content, max_triggers=self.limits.max_triggers)
-        except OpenAIRError as err:  # OA-REG-8: the previous registration stays in force
-            return Outcome(replies=(self._error(msg, err, board.name, now_ns),))
-        self._subscribed[msg.sender] = reg
-        if self._contexts is not None:
-            self._contexts.forget(msg.sender)  # OA-REG-17: a new registration starts afresh
-        self._reindex(msg.sender)
-        ack = cmd.reply(msg, "RECEIVE_ACCEPT", sender=board.name, now_ns=now_ns)
-        return Outcome(replies=(ack,), deliveries=self._phase_update(msg.sender, now_ns))
-
-    def _phase_update(self, name: str, now_ns: int) -> tuple[Delivery, ...]:
-        """Tell a bound module its phase in force after a registration (OA-WAKE-9)."""
-        if name not in self._modules:
-            return ()
-        reg = self.registration(name)
-        update = build_wakeup(
-            stored=None,
-            whiteboard=_PHASE_SENDER,
-            module=name,
-            phase=self._phase_in_force(name, reg),
-        )
-        self._module_counters(name).queued += 1
-        message = derive(update, posted=cmd.ms_time(now_ns))
-        return (
-            Delivery(
-                module=name,
-                message=message,
-                due_ns=now_ns,
-                priority=message.effective_priority,
-                wb_priority=DEFAULT_WB_PRIORITY,
-            ),
-        )
-
-    def _phase_in_force(self, name: str, reg: Registration | None) -> Phase | None:
-        """Return the phase in force: by contexts (OA-REG-14), else Ready's first (OA-REG-10)."""
-        if self._contexts is not None:
-            return self._contexts.phase(name, reg)
-        return reg.active_phase if reg is not None else None
-
-    def _context_post(
-        self, board: Whiteboard, stored: Message, now_ns: int
-    ) -> tuple[Delivery, ...]:
-        """Apply a context or phase change, then decide the post's wakeups (OA-REG-13..18)."""
-        assert self._contexts is not None
-        if stored.type == PHASE_CHANGE:  # OA-REG-17: the poster's own phase advances
-            reg = self.registration(stored.sender)
-            self._contexts.advance(stored.sender, reg)
-            names = [stored.sender] if reg is not None else []
-        else:
-            context = context_of(stored.type)
-            changed = context is not None and self._contexts.activate(context)
-            names = list(self._triggers) if changed else []
-        updates: list[Delivery] = []
-        for name in names:
-            old = self._triggers.get(name)
-            self._reindex(name)
-            new = self._triggers.get(name)
-            if (old.phase if old else None) is not (new.phase if new else None):
-                updates.extend(self._phase_update(name, now_ns))  # OA-REG-15
-        return (*updates, *self._decide(board, stored, now_ns))
-
-    def _reindex(self, name: str) -> None:
-        """Put the triggers of `name`'s registration in force into the index (OA-REG-1)."""
-        old = self._triggers.pop(name, None)
-        if old is not None:
-            for i, (pattern, _, _) in enumerate(old.entries):
-                self._index.remove(pattern, (name, i))
-        reg = self.registration(name)
-        self.streams.set_registration(name, reg)  # OA-STREAM-14: inputstream sources
-        if reg is None:
-            self._sessions.set_registration(name, None)
-            return
-        phase = self._phase_in_force(name, reg)
-        entries = tuple(
-            (t.pattern, _folded_board(t.whiteboard), t.after_ms)
-            for t in (phase.triggers if phase is not None else ())
-        )  # OA-REG-10, OA-REG-14: the triggers of the phase in force
-        for i, (pattern, _, _) in enumerate(entries):
-            self._index.add(pattern, (name, i))
-        self._triggers[name] = _Triggers(
-            registration=reg,
-            entries=entries,
-            allow_self=reg.allow_self_triggering,
-            phase=phase,
-        )
-        self._sessions.set_registration(name, reg)
-
     # --- session commands -----------------------------------------------------------------
-
-    def _bind(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        """Bind a module name to this connection (OA-SESS-3..6, OA-SESS-19, OA-SESS-30)."""
-        try:
-            bound = self._sessions.bind(conn, msg, self.registration(msg.sender))
-        except BindRefusedError as err:
-            return Outcome(replies=(self._error(msg, err, "CNS", now_ns),))
-        deliveries: tuple[Delivery, ...] = ()
-        if bound.took_over:  # OA-SESS-6: registration and queue kept, no Lost notice
-            deliveries = self._notice(f"Psyclone.Module.Restored.{msg.sender}", now_ns)
-        content = str(bound.port)
-        accept = cmd.reply(msg, "BIND_ACCEPT", sender="CNS", now_ns=now_ns, content=content)
-        return Outcome(replies=(accept,), deliveries=deliveries, close_conns=bound.close)
-
-    def _reserved(self, name: str) -> bool:
-        """Return whether `name` belongs to a whiteboard, stream or component (OA-SESS-30)."""
-        return (
-            name in self._whiteboards
-            or name in self.streams.names()
-            or name in SYSTEM_COMPONENTS
-            or name in self._internal  # OA-CONF-8: an internal module's name
-        )
-
-    def _receive_frame(self, conn: ConnId, msg: Message, now_ns: int) -> Outcome:
-        """Make `conn` the callback connection of `from` (OA-SESS-7); no reply."""
-        if msg.type != "RECEIVE_NAME_NOTIFICATION":
-            err = MessageInvalidError("a Receive frame must carry RECEIVE_NAME_NOTIFICATION")
-            return Outcome(replies=(self._error(msg, err, "CNS", now_ns),))
-        if msg.to and msg.to not in SYSTEM_COMPONENTS and msg.to not in self._whiteboards:
-            stream = self.streams.subscribe_push(conn, msg)  # 11.6: a push connection
-            if stream is not None:
-                return Outcome(push_stream=stream)
-            err2 = StreamUnknownError(f"no stream {msg.to!r} to receive samples from")
-            return Outcome(replies=(self._error(msg, err2, "CNS", now_ns),))
-        close = self._sessions.notify(conn, msg)
-        if close is None:
-            return Outcome(close_this=True)  # no module can ever bind that name
-        return Outcome(close_conns=close)
-
-    def _auth_screen(
-        self, conn: ConnId, msg: Message, tag: FrameTag, now_ns: int
-    ) -> Outcome | None:
-        """Refuse what this connection may not do in secure mode (OA-AUTH-5, -6, -8)."""
-        assert self._auth is not None
-        to = msg.to or "CNS"
-        board = to in self._whiteboards
-        post = board or (to not in self._components and to in self._modules)
-        refusal = self._auth.screen(
-            conn, msg, receive=tag is FrameTag.RECEIVE, cns=to == "CNS", post=post
-        )
-        if refusal is None:
-            return None
-        sender = to if board or to in self._components else "CNS"
-        answer = cmd.error_reply(
-            msg, refusal.error, sender=sender, now_ns=now_ns, type_=refusal.reply_type
-        )
-        return Outcome(replies=(answer,), close_this=refusal.close)
-
-    def _auth_challenge(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        """Answer a fresh nonce for this connection (OA-AUTH-2)."""
-        assert self._auth is not None
-        nonce = self._auth.challenge(conn)
-        return Outcome(
-            replies=(cmd.reply(msg, AUTH_NONCE, sender="CNS", now_ns=now_ns, content=nonce),)
-        )
-
-    def _auth_response(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        """Prove `from` on this connection, or answer AUTH_FAILED (OA-AUTH-3)."""
-        assert self._auth is not None
-        try:
-            self._auth.respond(conn, msg.sender, msg.content)
-        except OpenAIRError as err:
-            return Outcome(replies=(self._error(msg, err, "CNS", now_ns),))
-        return Outcome(replies=(cmd.reply(msg, AUTH_ACCEPT, sender="CNS", now_ns=now_ns),))
-
-    def _notification_in_message(
-        self, conn: ConnId, msg: Message, received_ns: int, now_ns: int
-    ) -> Outcome:
-        """Refuse RECEIVE_NAME_NOTIFICATION outside a Receive frame: it would need no reply."""
-        err = MessageInvalidError("RECEIVE_NAME_NOTIFICATION must come in a Receive frame")
-        return Outcome(replies=(self._error(msg, err, "CNS", now_ns),))
-
-    def _resolve(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        """Resolve a name to the main port (OA-SESS-8, OA-SESS-9)."""
-        name = msg.content.strip()
-        known = (
-            name in SYSTEM_COMPONENTS
-            or name in self._whiteboards
-            or self.streams.resolve(name) is not None  # OA-XSTREAM-1: a type resolves too
-            or name in self._modules  # forwarded through the main port (OA-SESS-22)
-        )
-        if not known:  # NAME_UNRESOLVED: RESOLVE_FAILED keeps its legacy empty content (OA-ERR-6)
-            return Outcome(replies=(cmd.reply(msg, "RESOLVE_FAILED", sender="CNS", now_ns=now_ns),))
-        location = encode_tcplocation(TcpLocation(address=self.address, port=self.port, name=name))
-        answer = cmd.reply(
-            msg, "RESOLVE_SUCCESS", sender="CNS", now_ns=now_ns, content=location, xml=True
-        )
-        return Outcome(replies=(answer,))
-
-    def _session_reply(self, msg: Message, sender: str, now_ns: int) -> Outcome:
-        kind = "PING_SUCCESS" if msg.type == "PING" else "KEEPALIVESUCCESS"
-        return Outcome(replies=(cmd.reply(msg, kind, sender=sender, now_ns=now_ns),))
-
-    def _ping(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        return self._session_reply(msg, msg.to or "CNS", now_ns)  # OA-SESS-10
-
-    def _keepalive(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        return self._session_reply(msg, msg.to or "CNS", now_ns)  # OA-KEEP-2
-
-    def _status(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        started = self.started_ns if self.started_ns is not None else now_ns
-        modules = len(self._modules)
-        counters = dict(self.counters())
-        if self.status_extra is not None:
-            counters.update(self.status_extra())
-        if self._qos:  # OA-DELIV-14: the adapter counts expired deliveries among its drops
-            dropped = counters.get("dropped")
-            expired = dropped.get("EXPIRED", 0) if isinstance(dropped, Mapping) else 0
-            counters["Deliveries"] = {"Expired": expired}
-        if self.defer_large_replies and len(self._counters) >= _LARGE_STATUS:
-            # Thousands of names take a second to write: on a worker (issue #19, item 7). The
-            # counters are a copy taken now, so the reply is still of this moment.
-            def later() -> tuple[Message, bytes | None]:
-                reply = cmd.status_reply(
-                    msg, started_ns=started, now_ns=now_ns, modules=modules, counters=counters
-                )
-                return reply, None
-
-            return Outcome(later=later)
-        answer = cmd.status_reply(
-            msg, started_ns=started, now_ns=now_ns, modules=modules, counters=counters
-        )
-        return Outcome(replies=(answer,))  # OA-SESS-25
-
-    def _capabilities(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        answer = cmd.capabilities_reply(
-            msg,
-            server=self.server_name,
-            extensions=self.extensions,
-            limits=self.limits,
-            now_ns=now_ns,
-        )
-        return Outcome(replies=(answer,))  # OA-SESS-23, OA-CAP-1
-
-    def _time(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        """Answer GET_TIME; with usec when the requester declared it (OA-EXT-2, OA-TIME-5)."""
-        declared = self._sessions.extensions_of(conn, msg.sender)
-        usec = "usec" in declared and "usec" in self.extensions
-        return Outcome(replies=(cmd.time_reply(msg, usec=usec, now_ns=now_ns),))
-
-    def _entry(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        return Outcome(replies=(cmd.entry_reply(msg, self.config, now_ns=now_ns),))  # OA-SESS-12
-
-    def _get_streams(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        """List the streams (OA-STREAM-16)."""
-        listing = self.streams.listing()
-        answer = cmd.reply(msg, "STREAMS", sender="CNS", now_ns=now_ns, content=listing, xml=True)
-        return Outcome(replies=(answer,))
-
-    def _create_stream(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        """Create a stream at run time (OA-XSTREAM-10)."""
-        try:
-            self.streams.create(
-                msg.content,
-                whiteboards=self._whiteboards,
-                taken=lambda name: self._reserved(name) or name in self._modules,
-            )
-        except OpenAIRError as err:
-            return Outcome(replies=(self._error(msg, err, "Psyclone", now_ns),))
-        return Outcome(
-            replies=(cmd.reply(msg, "RECEIVE_ACCEPT", sender="Psyclone", now_ns=now_ns),)
-        )
-
-    def _current_phase(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        reg = self.registration(msg.sender)
-        phase = self._phase_in_force(msg.sender, reg)  # OA-REG-14 under `contexts`
-        return Outcome(replies=(cmd.current_phase_reply(msg, phase, now_ns=now_ns),))  # OA-SESS-13
-
-    def _get_id(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        answer = cmd.reply(msg, "ID", sender="AIRServer", now_ns=now_ns, content=self.server_id)
-        return Outcome(replies=(answer,))  # OA-SESS-14
-
-    def _get_name(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        answer = cmd.reply(msg, "NAME", sender="AIRServer", now_ns=now_ns, content=self.config.name)
-        return Outcome(replies=(answer,))  # OA-SESS-14
-
-    def _perfstat(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:
-        answer = cmd.reply(msg, "RECEIVE_ACCEPT", sender="AIRServer", now_ns=now_ns)
-        return Outcome(replies=(answer,))  # OA-SESS-14: the content may be ignored
 
     # --- helpers --------------------------------------------------------------------------
 
     def _error(self, msg: Message, err: OpenAIRError, sender: str, now_ns: int) -> Message:
         return cmd.error_reply(msg, err, sender=sender, now_ns=now_ns)  # OA-ERR-2, OA-ERR-6
 
-    def _module_counters(self, name: str) -> _ModuleCounters:
+    def _module_counters(self, name: str) -> ModuleCounters:
         counters = self._counters.get(name)
         if counters is None:
-            counters = self._counters[name] = _ModuleCounters()
+            counters = self._counters[name] = ModuleCounters()
         return counters
 
 
-def _urgent_enough(triggers: _Triggers, i: int, stored: Message) -> bool:
+def _urgent_enough(triggers: IndexedTriggers, i: int, stored: Message) -> bool:
     """Whether trigger i (an alarm trigger or not) accepts the message's priority (OA-TRIG-5)."""
     phase = triggers.phase
     limit = phase.triggers[i].max_priority if phase is not None else None
     return limit is None or stored.effective_priority <= limit
-
-
-def _folded_board(whiteboard: str) -> str:
-    """Fold a trigger's `from` for comparison; any / * / empty mean every board (OA-TRIG-2)."""
-    folded = ascii_fold(whiteboard.strip())
-    return ANY_WHITEBOARD if folded in ("", "any", "*") else folded
-
-
-def _stream_specs(config: ServerConfig, *, typed: bool) -> list[StreamSpec]:
-    """Read the configured streams (spec 11.1, 11.7); ConfigError for values that cannot hold."""
-    boards = [wb.name for wb in config.whiteboards]
-    specs: list[StreamSpec] = []
-    types: set[str] = set()
-    for wb in config.whiteboards:
-        for s in wb.streams:
-            try:
-                spec = StreamSpec.from_config(s, wb.name, typed_streams=typed, whiteboards=boards)
-            except OpenAIRError as err:
-                raise ConfigError(
-                    f"{config.source or 'psySpec'}: stream {s.name!r}: {err.detail}"
-                ) from None
-            if spec.type is not None:
-                folded = ascii_fold(spec.type)
-                if folded in types:  # OA-XSTREAM-1: unique ignoring case
-                    raise ConfigError(f"stream {s.name!r}: the type {spec.type!r} is used twice")
-                types.add(folded)
-            specs.append(spec)
-    return specs

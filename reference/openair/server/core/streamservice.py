@@ -10,13 +10,9 @@ alarms the router posts on a whiteboard (`alarms`). The ring buffers themselves 
 from __future__ import annotations
 
 import itertools
-import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from lxml import etree
-
-from openair.protocol.codec import encode_message, time_from_element
 from openair.protocol.content import Registration
 from openair.protocol.datasample import DataSample, decode_chunk
 from openair.protocol.errors import (
@@ -28,21 +24,16 @@ from openair.protocol.errors import (
     SampleInvalidError,
     SampleUnknownError,
 )
-from openair.protocol.fastcodec import fast_encode_str, message_with
-from openair.protocol.framing import Frame, FrameTag, encode_frame
+from openair.protocol.fastcodec import message_with
 from openair.protocol.matching import ascii_fold, matches
-from openair.protocol.message import Message, Slot
+from openair.protocol.message import Message
 from openair.protocol.objects import (
     attr,
     element,
-    elements,
     encode_time,
-    inner_text,
     parse_content,
     parse_integer,
-    parse_time,
     serialize,
-    time_bound,
 )
 from openair.protocol.times import AirTime
 from openair.protocol.types import validate_pattern
@@ -50,26 +41,30 @@ from openair.protocol.xmlsafe import local_name
 from openair.server.core import commands as cmd
 from openair.server.core.config import StreamConfig
 from openair.server.core.sessions import ConnId
-from openair.server.core.streams import Alarm, StoredSample, Stream, StreamSpec
+from openair.server.core.streams import Stream
+from openair.server.core.streamspec import Alarm, StoredSample, StreamSpec
+from openair.server.core.streamwire import (
+    id_range,
+    integer_content,
+    sample_reply,
+    sample_search,
+    samples_of,
+    samples_reply,
+    stream_config,
+    time_ms,
+    time_pair,
+)
 
 __all__ = [
-    "DATASAMPLE_XML",
     "PendingWait",
     "SamplePush",
     "StreamOutcome",
     "StreamService",
     "WaitReply",
     "is_media_command",
-    "push_frame",
-    "push_message",
-    "sample_reply",
-    "samples_reply",
 ]
 
-DATASAMPLE_XML = "<datasample/>"
 _NS_PER_MS = 1_000_000
-_HEX = re.compile(r"[0-9A-Fa-f]+")
-MAX_PATTERN_BYTES = 256  # OA-XSTREAM-11
 _READS = frozenset(
     {
         "GET_SAMPLE_BY_ID",
@@ -231,7 +226,7 @@ class StreamService:
         boards = list(whiteboards)
         if board not in boards:
             raise ContentInvalidError(f"<stream whiteboard={board!r}> names no whiteboard")
-        cfg = _stream_config(el, name)
+        cfg = stream_config(el, name)
         self._check_created(cfg)
         spec = StreamSpec.from_config(cfg, board, typed_streams=self.typed, whiteboards=boards)
         if spec.type is not None and ascii_fold(spec.type) in self._by_type:
@@ -409,7 +404,7 @@ class StreamService:
     ) -> StreamOutcome:
         name = state.stream.name
         try:
-            samples = _samples_of(msg)
+            samples = samples_of(msg)
         except SampleInvalidError as err:  # OA-STREAM-5: nothing added
             return StreamOutcome(replies=(cmd.error_reply(msg, err, sender=name, now_ns=now_ns),))
         writer = msg.sender or f"conn:{conn}"
@@ -481,23 +476,23 @@ class StreamService:
             time = encode_time("time", AirTime.from_ms(found.timestamp_ms))
             return cmd.reply(msg, "TIMESTAMP", sender=name, now_ns=now_ns, content=time, xml=True)
         if kind == "GET_SAMPLES_BY_TIME":
-            low, high = _time_pair(msg.content)
+            low, high = time_pair(msg.content)
             return samples_reply(msg, stream.between(low, high), sender=name, now_ns=now_ns)
         return sample_reply(msg, _one(stream, msg), sender=name, now_ns=now_ns)
 
     def _typed(self, conn: ConnId, stream: Stream, msg: Message, now_ns: int) -> Message:
         name = stream.name
         if msg.type == "SEARCH_SAMPLES":
-            after, until, params, latest, payload = _search(msg.content)
+            after, until, params, latest, payload = sample_search(msg.content)
             found = stream.search(
                 after_ms=after, until_ms=until, params=params, latest=latest, payload=payload
             )
             return samples_reply(msg, found, sender=name, now_ns=now_ns)  # OA-XSTREAM-9
         if msg.type == "LOCK_SAMPLES":
-            first, last = _range(msg.content)
+            first, last = id_range(msg.content)
             lock_id = stream.lock(first, last, conn)  # OA-XSTREAM-5
             return cmd.reply(msg, "LOCKED", sender=name, now_ns=now_ns, content=str(lock_id))
-        lock_id = _integer(msg.content, "lock id")
+        lock_id = integer_content(msg.content, "lock id")
         if not stream.unlock(lock_id, conn):
             raise LockUnknownError(f"no lock {lock_id} of this connection on {name!r}")
         return cmd.reply(msg, "RECEIVE_ACCEPT", sender=name, now_ns=now_ns)
@@ -515,9 +510,9 @@ class StreamService:
             ticket=next(self._tickets), conn=conn, request=msg, stream=state.stream.name, kind=kind
         )
         if kind.endswith("AFTERID"):
-            wait.after_id = _integer(msg.content, "sample id")
+            wait.after_id = integer_content(msg.content, "sample id")
         else:
-            wait.after_ms = _time_ms(msg.content)
+            wait.after_ms = time_ms(msg.content)
         found = _satisfying(state.stream, wait)
         if found is not None:
             return StreamOutcome(
@@ -548,203 +543,13 @@ class StreamService:
         return tuple(ready)
 
 
-# --- messages ---------------------------------------------------------------------------------
-
-
-def sample_reply(req: Message, sample: StoredSample, *, sender: str, now_ns: int) -> Message:
-    """Build a DATASAMPLE reply carrying one sample as its chunk (11.2, OA-STREAM-6)."""
-    return message_with(
-        type="DATASAMPLE",
-        id=cmd.fresh_id(),
-        sender=sender,
-        to=req.sender,
-        isresponse=req.id,
-        posted=cmd.ms_time(now_ns),
-        content=DATASAMPLE_XML,
-        content_is_xml=True,
-        language="xml",
-        binary=(sample.chunk(),),
-    )
-
-
-def samples_reply(
-    req: Message, samples: Sequence[StoredSample], *, sender: str, now_ns: int
-) -> Message:
-    """Build a DATASAMPLES reply: a collection of datasamples, oldest first, and their chunks."""
-    objects = "<object><datasample/></object>" * len(samples)
-    return message_with(
-        type="DATASAMPLES",
-        id=cmd.fresh_id(),
-        sender=sender,
-        to=req.sender,
-        isresponse=req.id,
-        posted=cmd.ms_time(now_ns),
-        content=f"<objectcollection>{objects}</objectcollection>",
-        content_is_xml=True,
-        language="xml",
-        binary=tuple(s.chunk() for s in samples),
-    )
-
-
-def push_message(
-    sample: StoredSample, *, stream: str, to: str, dropped: int, now_ns: int
-) -> Message:
-    """Build a pushed DATASAMPLE (OA-STREAM-8, OA-STREAM-12), with `dropped` when samples were."""
-    extras = (Slot(name="dropped", value=str(dropped)),) if dropped else ()
-    return message_with(
-        type="DATASAMPLE",
-        id=cmd.fresh_id(),
-        sender=stream,
-        to=to,
-        posted=cmd.ms_time(now_ns),
-        content=DATASAMPLE_XML,
-        content_is_xml=True,
-        language="xml",
-        extras=extras,
-        binary=(sample.chunk(),),
-    )
-
-
-def push_frame(msg: Message) -> tuple[bytes, ...]:
-    """Write a DATASAMPLE message built here as frame parts: header and XML, then its chunks.
-
-    The content (`<datasample/>`) is this module's own XML, so the fast encoder may splice it
-    (no lxml per pushed sample); the chunks are the stored bytes, written without a copy.
-    """
-    text = fast_encode_str(msg, xml_content=True)
-    xml = text.encode("utf-8") if text is not None else encode_message(msg)
-    return (encode_frame(Frame(tag=FrameTag.MESSAGE, xml=xml)), *msg.binary)
-
-
-# --- content ----------------------------------------------------------------------------------
-
-
-def _samples_of(msg: Message) -> tuple[DataSample, ...]:
-    """Decode the samples of ADD_SAMPLE / ADD_SAMPLES (OA-STREAM-5, OA-STREAM-10)."""
-    chunks = msg.binary
-    if msg.type == "ADD_SAMPLE" and len(chunks) != 1:
-        raise SampleInvalidError(f"ADD_SAMPLE must carry one datasample chunk, not {len(chunks)}")
-    if not chunks:
-        raise SampleInvalidError("ADD_SAMPLES carries no datasample chunk")
-    if msg.type == "ADD_SAMPLES":
-        declared = _datasample_count(msg.content)
-        if declared != len(chunks):
-            raise SampleInvalidError(
-                f"the content names {declared} datasamples but {len(chunks)} chunks follow"
-            )
-    return tuple(decode_chunk(chunk) for chunk in chunks)
-
-
-def _datasample_count(content: str) -> int:
-    try:
-        roots = parse_content(content, SampleInvalidError)
-    except OpenAIRError as exc:
-        raise SampleInvalidError(f"ADD_SAMPLES content: {exc.detail}") from None
-    return sum(
-        1
-        for root in roots
-        for el in root.iter()
-        if isinstance(el.tag, str) and local_name(el) == "datasample"
-    )
-
-
-def _integer(content: str, what: str) -> int:
-    value = parse_integer(content)
-    if value is None:
-        raise ContentInvalidError(f"the content must be a {what}, not {content[:40]!r}")
-    return value
-
-
-def _range(content: str) -> tuple[int, int]:
-    first, sep, last = content.strip().partition("-")
-    low, high = parse_integer(first), parse_integer(last)
-    if not sep or low is None or high is None or low > high:
-        raise ContentInvalidError(
-            f"the content must be a range of ids first-last, not {content[:40]!r}"
-        )
-    return low, high
-
-
-def _time_of(el: etree._Element) -> int:
-    try:
-        return time_from_element(el).ms
-    except MessageInvalidError as exc:
-        raise ContentInvalidError(f"time: {exc.detail}") from None
-
-
-def _time_ms(content: str) -> int:
-    """Read content that is one time element (or, leniently, milliseconds since the epoch)."""
-    text = content.strip()
-    if text and not text.startswith("<"):
-        return _integer(text, "time element")
-    return parse_time(content).ms  # CONTENT_INVALID when it is not one time element
-
-
-def _time_pair(content: str) -> tuple[int, int]:
-    """Read the `<objectcollection>` of two times of GET_SAMPLES_BY_TIME (from, until)."""
-    roots = parse_content(content, ContentInvalidError)
-    times = [
-        _time_of(inner)
-        for root in roots
-        for obj in (elements(root) if local_name(root) == "objectcollection" else [root])
-        for inner in (elements(obj) if local_name(obj) == "object" else [obj])
-    ]
-    if len(times) != 2:
-        raise ContentInvalidError("GET_SAMPLES_BY_TIME needs two times (from, until)")
-    return times[0], times[1]
-
-
-def _search(content: str) -> tuple[int | None, int | None, list[tuple[str, str]], int, bytes]:
-    """Read `<samplesearch>` (OA-XSTREAM-9, with `<payload>` OA-XSTREAM-11)."""
-    roots = parse_content(content, ContentInvalidError)
-    if len(roots) != 1 or local_name(roots[0]) != "samplesearch":
-        raise ContentInvalidError("SEARCH_SAMPLES content must be one <samplesearch>")
-    after = until = None
-    params: list[tuple[str, str]] = []
-    latest = 0
-    payload = b""
-    seen: set[str] = set()
-    for child in elements(roots[0]):
-        kind = local_name(child)
-        if kind != "param" and kind in seen:
-            raise ContentInvalidError(f"<samplesearch> holds <{kind}> twice")
-        seen.add(kind)
-        if kind == "aftertime":
-            after = time_bound(child, "afterTime", ContentInvalidError).ms  # as OA-RET-9
-        elif kind == "untiltime":
-            until = time_bound(child, "untilTime", ContentInvalidError).ms
-        elif kind == "param":
-            key = attr(child, "name")
-            if not key:
-                raise ContentInvalidError("<param> needs a name")
-            params.append((key, inner_text(child)))
-        elif kind == "latest":
-            latest = _integer(inner_text(child), "count")
-        elif kind == "payload":
-            payload = _byte_pattern(inner_text(child))  # OA-XSTREAM-11
-        else:
-            raise ContentInvalidError(f"<samplesearch> holds <{kind}>")
-    return after, until, params, max(latest, 0), payload
-
-
-def _byte_pattern(text: str) -> bytes:
-    """Read a `<payload>` byte pattern: 1-256 bytes as hex pairs, spaces between (OA-XSTREAM-11)."""
-    pairs = text.split()
-    if not all(len(p) % 2 == 0 and _HEX.fullmatch(p) for p in pairs):
-        raise ContentInvalidError(f"<payload> {text[:40]!r} is not bytes in hexadecimal")
-    pattern = bytes.fromhex("".join(pairs))
-    if not 1 <= len(pattern) <= MAX_PATTERN_BYTES:
-        raise ContentInvalidError(f"<payload> holds {len(pattern)} bytes, not 1 to 256")
-    return pattern
-
-
 def _one(stream: Stream, msg: Message) -> StoredSample:
     """Find the one sample a GET_SAMPLE_BY_* / GET_*_DATASAMPLE asks for (OA-STREAM-6)."""
     kind = msg.type
     if kind == "GET_SAMPLE_BY_ID":
-        found = stream.by_id(_integer(msg.content, "sample id"))
+        found = stream.by_id(integer_content(msg.content, "sample id"))
     elif kind == "GET_SAMPLE_BY_TIME":
-        found = stream.at_or_before(_time_ms(msg.content))
+        found = stream.at_or_before(time_ms(msg.content))
     elif kind == "GET_NEWEST_DATASAMPLE":
         found = stream.newest()
     else:
@@ -775,17 +580,3 @@ def _type_matches(source: str, stream_type: str) -> bool:
     except OpenAIRError:
         return False
     return matches(source, stream_type)
-
-
-def _stream_config(el: etree._Element, name: str) -> StreamConfig:
-    """Read a run-time `<stream>` like a psySpec one (OA-XSTREAM-10)."""
-    known = ("name", "whiteboard", "maxsize", "maxcount")
-    other = tuple((str(k), str(v)) for k, v in el.attrib.items() if str(k) not in known)
-    try:
-        maxsize = float(attr(el, "maxsize") or "10")
-        maxcount = int(attr(el, "maxcount") or "0")
-    except ValueError as exc:
-        raise ContentInvalidError(f"<stream>: {exc}") from None
-    if not maxsize > 0 or maxcount < 0:
-        raise ContentInvalidError("<stream> maxsize must be > 0 and maxcount >= 0")
-    return StreamConfig(name=name, maxsize=maxsize, maxcount=maxcount, attributes=other)

@@ -1,0 +1,61 @@
+"""What the router decides: the deliveries to queue and the outcome of one event (spec 6.6).
+
+`Outcome` is all the asyncio adapter learns from `Router`: replies in order (OA-SESS-2),
+deliveries per module, connections to close, and the deferred replies and pushes of streams.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from openair.protocol.message import Message
+from openair.server.core.sessions import ConnId
+from openair.server.core.streamservice import PendingWait, SamplePush, WaitReply
+
+__all__ = ["Delivery", "Handler", "Outcome"]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Delivery:
+    """A message to queue for one module (6.6): due at `due_ns`, ordered by priority (10)."""
+
+    module: str
+    message: Message
+    due_ns: int
+    priority: float  # the carried message's effective priority (OA-PRIO-1)
+    wb_priority: float  # the sending whiteboard's priority (OA-PRIO-2)
+    # The Message frame of `message` when the router already wrote it (a wakeup), else None.
+    wire: bytes | None = field(default=None, compare=False, repr=False)
+    expires_ns: int = 0  # OA-DELIV-14: dropped when still unsent at this time (0: never)
+    # A wakeup's stored trigger message, for internal modules (OA-CONF-8: no XML to parse).
+    trigger: Message | None = field(default=None, compare=False, repr=False)
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Outcome:
+    """What the adapter does after one event.
+
+    `discard_queues` names modules whose session ended (OA-SESS-15): drop their queued
+    deliveries.
+    """
+
+    replies: tuple[Message, ...] = ()
+    deliveries: tuple[Delivery, ...] = ()
+    close_conns: tuple[ConnId, ...] = ()
+    close_this: bool = False
+    discard_queues: tuple[str, ...] = ()
+    # Streams (spec 11): this request's reply is deferred (a WAIT_FOR_*, OA-STREAM-7); deferred
+    # replies now ready, on any connection; samples to push (OA-STREAM-8, OA-STREAM-14); and the
+    # stream this connection now receives pushes from (its Receive frame, 11.6).
+    wait: PendingWait | None = None
+    resolved: tuple[WaitReply, ...] = ()
+    pushes: tuple[SamplePush, ...] = ()
+    push_stream: str = ""
+    # A reply too large to write on the event loop (issue #19, item 6): instead of `replies`,
+    # a function that builds it and its frame on any thread. Only with `defer_large_replies`.
+    later: Callable[[], tuple[Message, bytes | None]] | None = None
+
+
+#: A component command's handler: (connection, request, received_ns, now_ns) -> Outcome.
+Handler = Callable[[ConnId, Message, int, int], Outcome]

@@ -38,6 +38,18 @@ LIMITED: dict[str, tuple[dict[str, int], ...]] = {
     ),
     "FRAME-018": ({"frame_deadline_ms": 400},),
     "ATT-005": ({"max_frame_binary": 4096},),
+    # The 14.1 bounds (issue #15): not applicable at the defaults, which take hundreds of MiB.
+    **{
+        case_id: (
+            {
+                "max_queue_bytes": 65_536,
+                "max_wakeup_results": 8,
+                "max_wakeup_result_bytes": 5,
+                "max_history_bytes": 60_000,
+            },
+        )
+        for case_id in ("LIM-001", "LIM-002", "LIM-003", "LIM-004")
+    },
 }
 
 #: Cases of LIMITED that must also pass (not be not-applicable) at the default limits.

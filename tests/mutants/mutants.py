@@ -19,7 +19,9 @@ nothing is patched outside the block). The mutants live in modules by spec area:
 - mutants_sharpened.py — issue #15: boundaries the examples never touched (retries, time
   windows, rare stored-copy slots, letter case, fractional priorities, every component);
 - mutants_faults.py — issue #15: faults from the hand-written set (tests/faults) the suite
-  once passed (white space around content, receivedTime to the second).
+  once passed (white space around content, receivedTime to the second);
+- mutants_bounds.py — issue #15: faults the mutation campaign made survive (the byte and
+  result bounds of 14.1, the PhaseSpec's triggers, the largest valid after).
 
 test_mutants.py runs the conformance cases that could catch each mutant against a server
 started with it active, and reports which cases catch which mutant.
@@ -28,6 +30,7 @@ started with it active, and reports which cases catch which mutant.
 from __future__ import annotations
 
 import mutants_attachments
+import mutants_bounds
 import mutants_clarified
 import mutants_contexts
 import mutants_faults
@@ -56,4 +59,5 @@ MODULES = (
     mutants_attachments,
     mutants_sharpened,
     mutants_faults,
+    mutants_bounds,
 )

@@ -151,6 +151,19 @@ def test_cases_that_need_other_limits_get_a_server_of_their_own() -> None:
     assert by_limits(["DELIV-003"]) == [((("max_queue", 300),), ["DELIV-003"])]
 
 
+def test_a_case_with_several_sets_of_limits_runs_under_each() -> None:
+    from tools.mutation.serving import CASE_LIMITS, by_limits
+
+    more = CASE_LIMITS["DELIV-013"][1]
+    assert more and dict(more)["delivery_retries"] > 2  # beyond the default two retries
+    assert by_limits(["DELIV-013", "A-001"]) == [
+        ((), ["DELIV-013", "A-001"]),
+        (more, ["DELIV-013"]),
+    ]
+    groups = by_limits([f"LIM-00{n}" for n in range(1, 5)])  # one server for the four
+    assert len(groups) == 1 and groups[0][0] != () and len(groups[0][1]) == 4
+
+
 def test_a_mutated_keyword_only_marker_is_invalid_not_killed() -> None:
     """cosmic-ray also "replaces" the `*` of `def f(a, *, b)`; such a mutant must not count."""
     pytest.importorskip("cosmic_ray")

@@ -86,7 +86,7 @@ async def _plugged(ctx: CaseContext) -> tuple[_Hand, Message, TestModule]:
     return hand, await hand.next(), poster
 
 
-async def _plugged_window(ctx: CaseContext) -> tuple[_Hand, list[Message], TestModule]:
+async def plugged_window(ctx: CaseContext) -> tuple[_Hand, list[Message], TestModule]:
     """Return (module, held wakeups, poster) with the module's whole window held.
 
     Under `pipelining` the module declares it and the server may have max-in-flight deliveries
@@ -102,7 +102,7 @@ async def _plugged_window(ctx: CaseContext) -> tuple[_Hand, list[Message], TestM
     return hand, plugs, poster
 
 
-async def _drain(ctx: CaseContext, hand: _Hand, last: str, *, batch: int) -> list[str]:
+async def drain_held(ctx: CaseContext, hand: _Hand, last: str, *, batch: int) -> list[str]:
     """Take deliveries up to the one for `last`; return their trigger ids in order.
 
     Acknowledgements go out `batch` at a time (fewer than the window, so the server always has
@@ -304,7 +304,7 @@ async def queue_overflow_at_default(ctx: CaseContext) -> None:
 
 async def _overflow(ctx: CaseContext, limit: int) -> None:
     """Fill a held module's queue with max-queue + 1 fills after one priority-5 message."""
-    hand, plugs, poster = await _plugged_window(ctx)
+    hand, plugs, poster = await plugged_window(ctx)
     await poster.post("WB1", ctx.type("Low"), "low", priority=5.0)
     assert poster.last_sent is not None
     low = poster.last_sent.id
@@ -322,7 +322,7 @@ async def _overflow(ctx: CaseContext, limit: int) -> None:
     )
     ids.append(last.isresponse)
     await hand.callback.send_messages([p.reply("RECEIVE_ACCEPT", sender=hand.name) for p in plugs])
-    arrived = await _drain(ctx, hand, ids[-1], batch=max(1, len(plugs) // 4))
+    arrived = await drain_held(ctx, hand, ids[-1], batch=max(1, len(plugs) // 4))
     # A last, lowest-priority sentinel: the priority-5 delivery, if kept, arrives before it.
     await poster.post("WB1", ctx.type("Sentinel"), "end", priority=6.999)
     assert poster.last_sent is not None

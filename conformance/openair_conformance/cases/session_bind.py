@@ -460,3 +460,32 @@ async def callback_replaced(ctx: CaseContext) -> None:
     wakeup = await next_request(ctx, second, receive_id=sent.id, name=name)
     await ack(second, wakeup, name)
     ctx.check(wakeup.type == "AIR.Instruct.Wakeup", f"got {wakeup.type}", expected="OA-SESS-7")
+
+
+@case(
+    id="SESS-044",
+    title="After a takeover from another port, deliveries go to the new module's port",
+    section="6.3",
+    requirements=("OA-SESS-6", "OA-DELIV-1"),
+    allowed=(
+        "the wakeup for the message cc'd to N after the takeover arrives at the second N's "
+        "port, not the first's",
+    ),
+)
+async def takeover_new_port(ctx: CaseContext) -> None:
+    """Bind N listening on a port (no callback connection) and take the wakeup of a message
+    cc'd to it there; bind N again from another connection with a listener of its own; cc N
+    another message.
+
+    Catches: a server that goes on writing to the connection it opened to the first port,
+    though the name now belongs to a session at another port (OA-SESS-6, OA-DELIV-1).
+    """
+    first = await ctx.module("N", callback=False)
+    poster = await ctx.module("Poster", bind=False)
+    await poster.post("WB1", ctx.type("One"), "one", cc=first.name)
+    assert poster.last_sent is not None
+    await first.expect_wakeup_for(poster.last_sent.id)
+    second = await ctx.module("N", callback=False)  # the same name: a takeover
+    await poster.post("WB1", ctx.type("Two"), "two", cc=second.name)
+    assert poster.last_sent is not None
+    await second.expect_wakeup_for(poster.last_sent.id)

@@ -355,12 +355,18 @@ async def lost_notice(ctx: CaseContext) -> None:
     section="6.9",
     requirements=("OA-SESS-31",),
     level=Level.SHOULD,
-    allowed=("a stored Psyclone.Context:Psyclone.System.Ready from Psyclone on AIRCentral",),
+    allowed=(
+        "a stored Psyclone.Context:Psyclone.System.Ready from Psyclone on AIRCentral, the "
+        "same one after a later request",
+    ),
 )
 async def ready_notice(ctx: CaseContext) -> None:
-    """Retrieve the newest Psyclone.Context:Psyclone.System.Ready from AIRCentral.
+    """Retrieve the newest Psyclone.Context:Psyclone.System.Ready from AIRCentral; post once
+    and retrieve it again.
 
-    Catches: a server that never announces readiness (modules that wait for it never start).
+    Catches: a server that never announces readiness (modules that wait for it never start),
+    and one that announces it again later (with a request), which activates the Ready
+    context anew for every module (OA-REG-13).
     """
     client = await ctx.module("R", bind=False)
     spec = '<retrieve from="AIRCentral" type="Psyclone.Context:Psyclone.System.Ready"/>'
@@ -369,4 +375,11 @@ async def ready_notice(ctx: CaseContext) -> None:
         len(found) == 1 and found[0].sender == "Psyclone",
         f"found {[(m.type, m.sender) for m in found]}",
         expected="one message from Psyclone (OA-SESS-31)",
+    )
+    await client.post("WB1", ctx.type("Later"), "a request after start-up")
+    again = await retrieved(ctx, client, spec)
+    ctx.check(
+        [m.id for m in again] == [m.id for m in found],
+        f"the newest notice is now {[m.id for m in again]}, was {[m.id for m in found]}",
+        expected="the same one: posted at start-up, not with later requests (OA-SESS-31)",
     )

@@ -195,7 +195,8 @@ def _invalid_chunks(ctx: CaseContext) -> list[tuple[str, bytes]]:
 async def invalid_chunks(ctx: CaseContext) -> None:
     """Send ADD_SAMPLE with chunks that are too short, announce more payload than they hold,
     lack the final NUL, or whose parameters are not ASCII `key%equals%value` pairs; ADD_SAMPLE
-    without a chunk; ADD_SAMPLES with fewer chunks than datasamples or with none; and ADD_SAMPLES
+    without a chunk; ADD_SAMPLES with fewer or more chunks than datasamples or with none; and
+    ADD_SAMPLES
     of a valid,
     an invalid and a valid sample. Then show, by their timestamps, that the valid ones were not
     added, and that a valid ADD_SAMPLES adds both, in order.
@@ -211,6 +212,8 @@ async def invalid_chunks(ctx: CaseContext) -> None:
     two = (chunk(b"a"), chunk(b"b"))
     reply = await writer.request("ADD_SAMPLES", samples_xml(3), xml=True, binary=two)
     writer.refused(reply, "ADD_SAMPLES of 3 datasamples with 2 chunks", req="OA-STREAM-5")
+    reply = await writer.request("ADD_SAMPLES", samples_xml(1), xml=True, binary=two)
+    writer.refused(reply, "ADD_SAMPLES of 1 datasample with 2 chunks", req="OA-STREAM-5")
     reply = await writer.request("ADD_SAMPLES", "<objectcollection/>", xml=True)
     writer.refused(reply, "ADD_SAMPLES without any sample", req="OA-STREAM-5")
     base = past_window(ctx)
@@ -251,7 +254,8 @@ async def _between(writer: StreamClient, start: int, end: int, req: str) -> list
     allowed=(
         "NAME = the stream's name; COUNT and SIZE decimal; newest id >= the sample added, oldest "
         "<= it; TIMESTAMP a time element; SAMPLE_UNKNOWN for ids and times with no sample; "
-        "CONTENT_INVALID for an id that is no integer, a time without sec, a range of one time; "
+        "CONTENT_INVALID for an id that is no integer, a time without sec, a range of one or three "
+        "times; "
         "UNKNOWN_COMMAND 'Offending cmd: TYPE' for another type",
     ),
 )
@@ -299,11 +303,15 @@ async def reading_commands(ctx: CaseContext) -> None:
     empty = await _between(reader, 0, 0, "OA-STREAM-6")
     ctx.check(not empty, f"{len(empty)} samples at time 0", expected="none (OA-STREAM-6)")
     one_time = f"<objectcollection><object>{time_xml(0)}</object></objectcollection>"
+    three_times = (
+        one_time.replace("</objectcollection>", "") + 2 * f"<object>{time_xml(0)}</object>"
+    )
     for type, content, xml in (
         ("GET_SAMPLE_BY_ID", "abc", False),
         ("GET_SAMPLE_BY_ID", "", False),
         ("GET_SAMPLE_BY_TIME", '<time msec="5"/>', True),
         ("GET_SAMPLES_BY_TIME", one_time, True),
+        ("GET_SAMPLES_BY_TIME", three_times + "</objectcollection>", True),
     ):
         reply = await reader.request(type, content, xml=xml)
         check_error(

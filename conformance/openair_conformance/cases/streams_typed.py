@@ -70,8 +70,9 @@ async def create_at_run_time(ctx: CaseContext) -> None:
     """Create a stream and a typed one; resolve the name; GET_COUNT, GET_NEWEST_DATASAMPLE and
     two adds. Then ask for streams named like a bound module, an existing stream or a
     whiteboard, typed like an existing stream, without whiteboard, in an unknown whiteboard,
-    with softcount 5 above hardcount 2, with the type `a..b`, and with `<streem/>`. Finally
-    GET_STREAMS lists the two new streams after the configured ones, in creation order.
+    with softcount 5 above hardcount 2, with the type `a..b`, with `<streem/>` and with no
+    content. Finally GET_STREAMS lists the two new streams after the configured ones, in
+    creation order.
 
     Catches: streams that cannot be created, created twice, or start with ids other than 1.
     """
@@ -105,6 +106,7 @@ async def create_at_run_time(ctx: CaseContext) -> None:
         ),
         (f'<stream name="{ctx.name("Dots")}" {wb} type="a..b"/>', "with the type a..b"),
         (f'<streem name="{ctx.name("Streem")}" {wb}/>', "whose content is no <stream>"),
+        ("", "with no content"),
     ):
         await _create_refused(ctx, raw, content, why)
     ctx.check(
@@ -476,8 +478,9 @@ async def search(ctx: CaseContext) -> None:
     allowed=("RECEIVE_ERROR with content 'CONTENT_INVALID: detail' for each",),
 )
 async def search_refused(ctx: CaseContext) -> None:
-    """Send SEARCH_SAMPLES with an unknown child, a `param` without name, a bound that is no
-    time, another root element, `latest` twice and `untilTime` twice.
+    """Send SEARCH_SAMPLES with an unknown child (empty, or holding a valid byte pattern), a
+    `param` without name, a bound that is no time, another root element, `latest` twice and
+    `untilTime` twice.
 
     Catches: searches that ignore what they cannot read (and so return more than asked for).
     """
@@ -487,6 +490,7 @@ async def search_refused(ctx: CaseContext) -> None:
     await client.add(b"one")
     for bad in (
         _search_xml("<bogus/>"),
+        _search_xml("<bogus>41 42</bogus>"),  # an unknown child, even with a valid byte pattern
         _search_xml("<param>x</param>"),
         _search_xml("<afterTime>soon</afterTime>"),
         "<search/>",

@@ -17,6 +17,7 @@ from openair_conformance.cases._common import (
 from openair_conformance.harness import CaseContext
 from openair_conformance.harness.checks import (
     WakeupUnreadable,
+    content_root,
     wakeup_view,
 )
 from openair_conformance.registry import case
@@ -316,12 +317,16 @@ def _check_trigger_copy(ctx: CaseContext, trigger: Message | None, sent: Message
 )
 async def trigger_wakes(ctx: CaseContext) -> None:
     """Subscribe `<prefix>.Ping.*` on WB1, post `<prefix>.Ping.A` from another client, and
-    take the wakeup apart: envelope, object order, the stored copy, an empty collection and
-    lasttrigger = the pattern."""
+    take the wakeup apart: envelope, object order, the stored copy, an empty collection,
+    lasttrigger = the pattern, and both registered triggers (the other with after=60000) in
+    the PhaseSpec with after, from and type."""
     sub = await ctx.module("Sub")
     poster = await ctx.module("Poster", bind=False)
-    pattern = ctx.type("Ping.*")
-    await sub.subscribe(f'<triggers><trigger from="WB1" type="{pattern}"/></triggers>', check=True)
+    pattern, other = ctx.type("Ping.*"), ctx.type("Other")
+    triggers = (
+        f'<trigger from="WB1" type="{pattern}"/><trigger from="WB1" type="{other}" after="60000"/>'
+    )
+    await sub.subscribe(f"<triggers>{triggers}</triggers>", check=True)
     await poster.post("WB1", ctx.type("Ping.A"), "hello wake")
     assert poster.last_sent is not None
     sent = poster.last_sent
@@ -356,3 +361,28 @@ async def trigger_wakes(ctx: CaseContext) -> None:
         f"lasttrigger is {view.phase_attr('lasttrigger')!r}",
         expected=f"the pattern that fired, {pattern!r} (OA-WAKE-4)",
     )
+    got = sorted(_phase_triggers(wakeup))
+    want = sorted([("0", "wb1", pattern), ("60000", "wb1", other)])
+    ctx.check(
+        got == want,
+        f"the PhaseSpec triggers (after, from, type) are {got}",
+        expected=f"{want}: each written with after, from and type (OA-WAKE-4)",
+    )
+
+
+def _phase_triggers(wakeup: Message) -> list[tuple[str, str, str]]:
+    """Return (after, from lower-cased, type) of each `<trigger>` in the wakeup's `<phase>`
+    (None for a missing attribute is written as '?')."""
+    found = []
+    for root in content_root(wakeup):
+        for phase in root.iter("{*}phase", "phase"):
+            for el in phase.iter("{*}trigger", "trigger"):
+                attrs = {str(k).lower(): str(v) for k, v in el.attrib.items()}
+                found.append(
+                    (
+                        attrs.get("after", "?"),
+                        attrs.get("from", "?").lower(),
+                        attrs.get("type", "?"),
+                    )
+                )
+    return found

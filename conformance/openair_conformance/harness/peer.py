@@ -294,9 +294,15 @@ class TestModule:
         return reply
 
     async def subscribe(
-        self, content_xml: str, *, to: str = "AIRCentral", check: bool = False
+        self,
+        content_xml: str,
+        *,
+        to: str = "AIRCentral",
+        check: bool = False,
+        timeout: float | None = None,
     ) -> Message:
-        """Send AIR.Subscribe with XML content; return the reply (Fail if `check` and refused).
+        """Send AIR.Subscribe with XML content; return the reply (Fail if `check` and refused;
+        `timeout` replaces the deadline for a registration that takes long to read).
 
         A `<module name="N">` registration must name a module of this case and run (a legacy
         server takes N as the module registered, so a shared placeholder such as "x" lets
@@ -311,7 +317,7 @@ class TestModule:
             content_is_xml=True,
             language="xml",
         )
-        reply = await self.request(msg)
+        reply = await self.request(msg, timeout=timeout)
         if check and reply.type != "RECEIVE_ACCEPT":
             self.ctx.fail(
                 f"AIR.Subscribe was answered {reply.type} {reply.content!r}",

@@ -1,4 +1,5 @@
-"""`openair record`, `openair replay` and `openair monitor FILE` (docs/recording.md).
+"""`openair record` and `openair replay` (docs/recording.md); `openair monitor FILE` is in
+`cli_monitor` (it needs the `monitor` extra).
 
 Exit codes (all commands):
 
@@ -15,11 +16,10 @@ import asyncio
 import contextlib
 import datetime
 import signal
-from pathlib import Path
 
 import click
 
-from openair.client.cli_client import CliModule, _run
+from openair.client.cli_client import CliModule, run_command
 from openair.protocol.address import parse_server
 from openair.protocol.errors import OpenAIRError
 from openair.protocol.types import validate_pattern
@@ -27,10 +27,10 @@ from openair_recording.fileformat import MessageRecord, Record, RecordingReader
 from openair_recording.recorder import Recorder, RecordOptions
 from openair_recording.replay import Replayer, ReplayOptions, plan
 
-__all__ = ["load_recording", "monitor", "record", "replay"]
+__all__ = ["EPILOG", "load_recording", "record", "replay"]
 
 EXIT_USAGE = 2
-_EPILOG = "Exit codes: 0 ok, 1 failed, 2 usage or unreadable recording, 3 cannot connect."
+EPILOG = "Exit codes: 0 ok, 1 failed, 2 usage or unreadable recording, 3 cannot connect."
 
 
 def _server(ctx: click.Context, param: click.Parameter, value: str) -> tuple[str, int]:
@@ -65,7 +65,7 @@ def load_recording(path: str) -> tuple[RecordingReader, list[Record]]:
     return reader, records
 
 
-@click.command(epilog=_EPILOG)
+@click.command(epilog=EPILOG)
 @click.argument("server", metavar="HOST:PORT", callback=_server)
 @click.option("-o", "--output", required=True, metavar="FILE", help="The recording to write.")
 @click.option("--types", default="*", callback=_pattern, help="Type pattern (default: *).")
@@ -91,7 +91,7 @@ def record(
     names = None if streams == "all" else [s.strip() for s in streams.split(",") if s.strip()]
     options = RecordOptions(types=types, streams=names, name=name, timeout=timeout)
     host, port = server
-    recorder = _run(_record(host, port, output, options, duration))
+    recorder = run_command(_record(host, port, output, options, duration))
     for note in recorder.notes:
         click.echo(f"note: {note}", err=True)
     click.echo(f"recorded {recorder.messages} messages and {recorder.samples} samples to {output}")
@@ -134,7 +134,7 @@ def parse_when(text: str, start_us: int) -> int:
     return round(when.timestamp() * 1e6)
 
 
-@click.command(epilog=_EPILOG)
+@click.command(epilog=EPILOG)
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--to", "server", required=True, metavar="HOST:PORT", callback=_server)
 @click.option("--speed", default=1.0, type=click.FloatRange(min=0), help="0: no waiting.")
@@ -181,37 +181,9 @@ def replay(
             return replayer
 
     with contextlib.suppress(KeyboardInterrupt):
-        done = _run(run())
+        done = run_command(run())
         for note in done.notes:
             click.echo(f"note: {note}", err=True)
         click.echo(f"replayed {done.posted} messages and {done.added} samples to {host}:{port}")
         if done.posted < sum(1 for s in steps if isinstance(s.record, MessageRecord)):
             raise click.exceptions.Exit(1)
-
-
-@click.command(epilog=_EPILOG)
-@click.argument("file", type=click.Path(dir_okay=False))
-@click.option("--host", default="127.0.0.1", show_default=True)
-@click.option("--port", default=10001, show_default=True, type=click.IntRange(0, 65535))
-def monitor(file: str, host: str, port: int) -> None:
-    """Serve the monitor's JSON API (/api/…) over a recording, read-only, until Ctrl-C."""
-    from openair_monitor.http import HttpConnection
-    from openair_recording.monitor import RecordingMonitor
-
-    reader, records = load_recording(file)
-    app = RecordingMonitor(str(Path(file)), reader.header, records, reader.warnings)
-
-    async def serve() -> None:
-        loop = asyncio.get_running_loop()
-        stop = asyncio.Event()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
-        listener = await loop.create_server(lambda: HttpConnection(app), host, port)
-        where = listener.sockets[0].getsockname()
-        click.echo(f"monitor of {file} on http://{where[0]}:{where[1]}/api/", err=True)
-        async with listener:
-            await stop.wait()
-        for conn in list(app.connections):
-            conn.close()
-
-    _run(serve())

@@ -26,18 +26,34 @@ _RUN_S = 300  # bound on one command (the conformance suite takes ~10 s)
 
 
 @pytest.fixture(scope="session")
-def clean_python(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Build the wheel and install it into a fresh venv; return that venv's python."""
+def built_wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Build the wheel once."""
     base = tmp_path_factory.mktemp("wheel")
     source = _source_copy(base / "src")
     _check([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(base), str(source)])
     wheels = sorted(base.glob("openair_kit-*.whl"))
     assert len(wheels) == 1, wheels
+    return wheels[0]
+
+
+def _venv_with(base: Path, requirement: str) -> Path:
     venv = base / "venv"
     _check([sys.executable, "-m", "venv", str(venv)])
     python = venv / "bin" / "python"
-    _check([str(python), "-m", "pip", "install", "-q", str(wheels[0])])
+    _check([str(python), "-m", "pip", "install", "-q", requirement])
     return python
+
+
+@pytest.fixture(scope="session")
+def clean_python(built_wheel: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Install the wheel into a fresh venv (its base dependencies only); return its python."""
+    return _venv_with(tmp_path_factory.mktemp("base"), str(built_wheel))
+
+
+@pytest.fixture(scope="session")
+def apps_python(built_wheel: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The wheel with the applications' extras (issue #17: `[monitor,ontology]`)."""
+    return _venv_with(tmp_path_factory.mktemp("apps"), f"{built_wheel}[monitor,ontology]")
 
 
 def _source_copy(into: Path) -> Path:
@@ -73,7 +89,7 @@ def _no_traceback(done: subprocess.CompletedProcess[str]) -> None:
 
 
 def test_the_clean_venv_has_no_test_extras(clean_python: Path) -> None:
-    for optional in ("hypothesis", "xmlschema", "selenium", "pytest"):
+    for optional in ("hypothesis", "xmlschema", "selenium", "pytest", "h11", "graphviz"):
         done = subprocess.run([str(clean_python), "-c", f"import {optional}"], check=False)
         assert done.returncode != 0, f"{optional} is installed: the venv is not clean"
 
@@ -104,10 +120,10 @@ def test_serve_conform_stream_ls_and_stop(clean_python: Path) -> None:
         server.kill()
 
 
-def test_ontology_docs(clean_python: Path, tmp_path: Path) -> None:
+def test_ontology_docs(apps_python: Path, tmp_path: Path) -> None:
     site = tmp_path / "site"
     ontology = ROOT / "examples" / "seed-paper.ontology.xml"
-    done = _openair(clean_python, "ontology", "docs", str(ontology), "-o", str(site))
+    done = _openair(apps_python, "ontology", "docs", str(ontology), "-o", str(site))
     _no_traceback(done)
     assert done.returncode == 0, done.stderr
     assert (site / "index.html").is_file()
@@ -118,6 +134,8 @@ def test_ontology_docs(clean_python: Path, tmp_path: Path) -> None:
     [
         (("conform-worldmodel", "127.0.0.1:1", "--module", "M"), "worldmodel"),
         (("conform", "127.0.0.1:1", "--case", "FUZZ-001"), "fuzz"),
+        (("ontology", "docs", "x.ontology.xml", "-o", "site"), "ontology"),  # issue #17
+        (("monitor", "x.rec"), "monitor"),
     ],
 )
 def test_a_missing_extra_is_one_line(clean_python: Path, args: tuple[str, ...], extra: str) -> None:

@@ -114,6 +114,10 @@ def _run(coro: Coroutine[Any, Any, _T]) -> _T:
         raise click.exceptions.Exit(EXIT_FAILED) from None
 
 
+#: The public name of `_run`, for the commands of the applications beside the core (apps/).
+run_command = _run
+
+
 class CliModule(Module):
     """A `Module` whose connect() tells a peer that is not OpenAIR from one that is down."""
 

@@ -20,7 +20,7 @@ from contextvars import ContextVar
 from dataclasses import dataclass, replace
 
 from openair.protocol.codec import from_frame, to_frame
-from openair.protocol.connection import ANSWER_FOR
+from openair.protocol.connection import ANSWER_FOR, HARNESS_RULES, Connection, Role
 from openair.protocol.errors import OpenAIRError
 from openair.protocol.framing import Frame, FrameLimits, FrameReader, FrameTag, encode_frame
 from openair.protocol.message import Message
@@ -234,7 +234,9 @@ class RequesterChannel:
     def __init__(self, stream: FramedStream, *, name: str, pipelining: bool) -> None:
         self.stream = stream
         self.name = name
-        self._pending: list[_Pending] = []
+        #: The pairing rules shared with the server and the client (`HARNESS_RULES`: a reply
+        #: naming a later request is paired with it and the overtaking noted, OA-SESS-33).
+        self.machine: Connection[_Pending] = Connection(Role.REQUESTER, rules=HARNESS_RULES)
         self._window = asyncio.Semaphore(256 if pipelining else 1)
         self._task: asyncio.Task[None] | None = None
         self._lost: ConnectionLost | None = None
@@ -257,11 +259,12 @@ class RequesterChannel:
         future: asyncio.Future[Message] = asyncio.get_running_loop().create_future()
         future.add_done_callback(lambda _: self._window.release())
         entry = _Pending(request=msg, future=future, sent_at=time.monotonic())
-        self._pending.append(entry)
+        pending = self.machine.send_request(msg.id, msg.type, entry)
         try:
             entry.request = await self.stream.send_message(msg)
         except ConnectionLost:
-            self._pending.remove(entry)
+            if pending is not None:
+                self.machine.withdraw(pending)
             future.cancel()
             raise
         return entry.request, future
@@ -279,16 +282,15 @@ class RequesterChannel:
                 except DecodeProblem as exc:
                     self._resolve_oldest(exc)
                     continue
-                if msg.type in ANSWERS and not msg.isresponse:
+                if self.machine.is_out_of_turn(msg):
                     await self._answer_misplaced(msg)
                     continue
                 self._pair(msg)
         except ConnectionLost as exc:
             self._lost = exc
-            for entry in self._pending:
-                if not entry.future.done():
-                    entry.future.set_exception(exc)
-            self._pending.clear()
+            for pending in self.machine.fail_pending():
+                if not pending.token.future.done():
+                    pending.token.future.set_exception(exc)
 
     async def _answer_misplaced(self, msg: Message) -> None:
         # A request from the server on a connection the suite opened breaks the fixed roles
@@ -300,33 +302,21 @@ class RequesterChannel:
         await self.stream.send_message(msg.reply(ANSWERS[msg.type], sender=self.name))
 
     def _pair(self, reply: Message) -> None:
-        if not self._pending:
+        paired = self.machine.pair(reply)
+        if paired.pending is None:
             self.stream.trace.note("a reply arrived with no request outstanding", self.stream.label)
             return
-        index = 0
-        if reply.isresponse:
-            match = next(
-                (i for i, p in enumerate(self._pending) if p.request.id == reply.isresponse), None
-            )
-            if match is None:
-                self.stream.trace.note(
-                    f"isresponse {reply.isresponse!r} names no outstanding request; "
-                    "paired with the oldest one (OA-SESS-33)",
-                    self.stream.label,
-                )
-            elif match != 0:
-                self.stream.trace.note("a reply overtook an earlier request", self.stream.label)
-                index = match
-        entry = self._pending.pop(index)
+        if paired.note:
+            self.stream.trace.note(paired.note, self.stream.label)
+        entry = paired.pending.token
         self.replies.append((entry.request, reply))
         if not entry.future.done():
             entry.future.set_result(reply)
 
     def _resolve_oldest(self, exc: Exception) -> None:
-        if self._pending:
-            entry = self._pending.pop(0)
-            if not entry.future.done():
-                entry.future.set_exception(exc)
+        paired = self.machine.pair(None)
+        if paired.pending is not None and not paired.pending.token.future.done():
+            paired.pending.token.future.set_exception(exc)
 
     async def close(self) -> None:
         """Close the connection and stop reading."""

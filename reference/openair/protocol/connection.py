@@ -312,6 +312,13 @@ class Connection(Generic[T]):
             "paired with the oldest one (OA-SESS-33)"
         )
 
+    def withdraw(self, pending: Pending[T]) -> None:
+        """Forget a request that could not be sent after all (its write failed)."""
+        for index, waiting in enumerate(self._in_flight):
+            if waiting is pending:
+                del self._in_flight[index]
+                return
+
     def fail_pending(self) -> tuple[Pending[T], ...]:
         """Take every request still awaiting a reply (the connection ended without them)."""
         taken = tuple(self._in_flight)

@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from openair.server.aio.app import ServerOptions, start_server
-from openair.server.aio.delivery import DeliveryOptions
+from openair.server.aio.dispatcher import DeliveryOptions
 from openair.server.aio.scheduling import DEFAULT_TURN_BUDGET
 from openair.server.core.config import load_config
 

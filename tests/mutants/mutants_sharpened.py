@@ -19,7 +19,7 @@ from mutants_core import Fn, mutant, wrap, wrap_select
 
 from openair.protocol.content import RetrieveSpec
 from openair.protocol.message import Message
-from openair.server.aio.delivery import Dispatcher
+from openair.server.aio.dispatcher import Dispatcher
 from openair.server.core import commands, whiteboard
 from openair.server.core.queues import QueueItem
 from openair.server.core.router import Outcome, Router

@@ -22,7 +22,7 @@ from openair.client import Module
 from openair.client.module import FailedReplyError
 from openair.protocol.errors import ShuttingDownError
 from openair.protocol.message import Message
-from openair.server.aio.delivery import Dispatcher
+from openair.server.aio.dispatcher import Dispatcher
 from openair.server.aio.protocol import ServerConnection
 from openair.server.core.router import Delivery, ModuleInfo
 from openair_conformance.engine import RunOptions, exit_code, run

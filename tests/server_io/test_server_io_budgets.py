@@ -24,7 +24,7 @@ from openair.protocol.message import Message
 from openair.protocol.objects import parse_dictionary
 from openair.server.aio import protocol as protocol_module
 from openair.server.aio.app import ServerOptions
-from openair.server.aio.delivery import DeliveryOptions
+from openair.server.aio.dispatcher import DeliveryOptions
 from openair.server.aio.protocol import FlowLimits, Role, ServerConnection
 from openair.server.core.config import ServerLimits
 from openair.server.core.queues import DeliveryQueue

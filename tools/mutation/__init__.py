@@ -27,7 +27,7 @@ MODULE_GROUPS: dict[str, tuple[str, ...]] = {
     "retrieve": (_CORE + "retrieve.py",),
     "registration": ("reference/openair/protocol/registration.py",),
     "wakeup": ("reference/openair/protocol/wakeup.py",),
-    "delivery": (_AIO + "delivery.py", _CORE + "queues.py"),
+    "delivery": (_AIO + "delivery.py", _AIO + "dispatcher.py", _CORE + "queues.py"),
     "sessions": (_CORE + "sessions.py",),
     "streams": (_CORE + "streams.py", _CORE + "streamservice.py"),
 }

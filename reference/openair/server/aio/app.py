@@ -5,6 +5,9 @@
 bytes and time: `ServerConnection` (protocol.py) frames and decodes, `Dispatcher` (delivery.py)
 queues and sends deliveries, and `Server` ties connection ids to transports, which the router
 never holds.
+`ServerOptions` and what is derived from them (port, configuration, extensions) are
+`openair.server.aio.options`; this module re-exports `ServerOptions`, `DEFAULT_EXTENSIONS` and
+`DEFAULT_PORT` beside `start_server`, the names a caller starting a server needs.
 
 `Server.stop()` shuts down as OA-SESS-24 says: stop accepting, answer new requests
 `SHUTTING_DOWN` (the router does, after `shutting_down()`), attempt the deliveries already
@@ -17,11 +20,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import socket
-import ssl
 import time
-from collections.abc import Callable, Coroutine, Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable, Coroutine
+from dataclasses import replace
 from importlib.metadata import entry_points
 from typing import Protocol
 
@@ -31,21 +32,25 @@ from openair.observing import ServerObserver
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
 from openair.server.aio.budgets import quiet_accept_errors
-from openair.server.aio.delivery import DeliveryOptions, Dispatcher
+from openair.server.aio.dispatcher import Dispatcher
 from openair.server.aio.internal import InternalModules, start_internal
-from openair.server.aio.protocol import FlowLimits, Role, ServerConnection
+from openair.server.aio.options import (
+    DEFAULT_EXTENSIONS,
+    DEFAULT_PORT,
+    ServerOptions,
+    advertised_extensions,
+    auth_gate,
+    config_of,
+    delivery_options,
+    free_port,
+    main_port,
+)
+from openair.server.aio.protocol import Role, ServerConnection
 from openair.server.aio.pusher import Pusher
 from openair.server.aio.stores import open_store
-from openair.server.core.auth import AuthGate
 from openair.server.core.budgets import Budget
 from openair.server.core.commands import declared_extensions
-from openair.server.core.config import (
-    ConfigError,
-    ServerConfig,
-    ServerLimits,
-    default_config,
-    load_config,
-)
+from openair.server.core.config import ServerConfig
 from openair.server.core.router import ModuleInfo, Outcome, Router, SamplePush
 from openair.server.core.store import HistoryStore, SequencedStore
 
@@ -60,13 +65,8 @@ __all__ = [
 
 log = logging.getLogger("openair.server")
 
-#: Extensions the reference server implements; `durable` is added only with a durable store.
-DEFAULT_EXTENSIONS = frozenset(
-    {"noreply", "pipelining", "usec", "gettime", "typed-streams", "contexts", "qos"}
-)
 _TICK_S = 0.1  # OA-XSTREAM-7: Idle alarms are checked at least this often
 _BINDS = frozenset({"BIND", "BIND_NOLISTEN"})
-DEFAULT_PORT = 10000
 _WILDCARD_HOSTS = frozenset({"", "0.0.0.0", "::"})
 _STAGE_S = 2.0  # the longest one shutdown stage after the grace period may take
 
@@ -112,50 +112,6 @@ class MonitorHook(Protocol):
         """Close the monitor's own listener and its open HTTP connections."""
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
-class ServerOptions:
-    """How to run a server: where to listen, what to serve, and its limits and timing."""
-
-    host: str = "127.0.0.1"
-    # None: the configuration's <global><port>, else DEFAULT_PORT (OA-CONF-7: a port given
-    # here, as on the command line, wins over the configuration's).
-    port: int | None = 10000
-    config: ServerConfig | None = None
-    config_path: str | None = None
-    store: str = "memory"
-    limits: ServerLimits = field(default_factory=ServerLimits)
-    extensions: frozenset[str] = DEFAULT_EXTENSIONS
-    grace_s: float = 5.0  # OA-SESS-24
-    delivery: DeliveryOptions = field(default_factory=DeliveryOptions)
-    flow: FlowLimits = field(default_factory=FlowLimits)
-    backlog: int = 1024
-    # The web monitor (issue #9, spec 15.2 `monitor`): HTTP on the main port when a connection
-    # starts with an HTTP method, and on `http_port` when given. Read-only unless monitor_post.
-    monitor: bool = True
-    http_port: int | None = None
-    monitor_post: bool = False
-    monitor_hosts: tuple[str, ...] = ("127.0.0.1", "::1")
-    # Secure mode (spec 14.3, extension `auth`): the module secrets; None is legacy mode.
-    auth_secrets: Mapping[str, str] | None = field(default=None, repr=False)  # never logged
-    tls: ssl.SSLContext | None = None  # TLS on the main port (OA-AUTH-10)
-
-
-def free_port(requested: int) -> int:
-    """Return `requested` if it can be bound on this host, else a free port (binding port 0).
-
-    The router asks for a port when a module BINDs without one (DESIGN-NOTES: the server picks a
-    port free on its own host). The socket is closed at once; the module binds it next.
-    """
-    for port in (requested, 0) if requested > 0 else (0,):
-        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-            try:
-                sock.bind(("", port))
-            except OSError:
-                continue
-            return int(sock.getsockname()[1])
-    raise OSError("no free port")
-
-
 class Server:
     """A running OpenAIR server; build it with `start_server`."""
 
@@ -164,7 +120,7 @@ class Server:
         self.config = config
         self.store = store
         self.host = options.host
-        self.port = _main_port(options.port, config)
+        self.port = main_port(options.port, config)
         self.limits = options.limits
         self.flow = options.flow
         wanted = options.extensions | {"monitor"} if options.monitor else options.extensions
@@ -175,7 +131,7 @@ class Server:
         self._attach_monitor = _attachment("monitor") if monitor else None
         if monitor and self._attach_monitor is None:
             wanted = wanted - {"monitor"}
-        self.extensions = _extensions(wanted, store)
+        self.extensions = advertised_extensions(wanted, store)
         self.router: Router
         self.internal: InternalModules | None = None  # the modules run inside (OA-CONF-8)
         self._listener: asyncio.Server | None = None
@@ -190,7 +146,7 @@ class Server:
             self,
             capacity=options.limits.max_queue,
             max_in_flight=options.limits.max_in_flight,
-            options=_delivery_options(options),
+            options=delivery_options(options),
             max_queue_bytes=options.limits.max_queue_bytes,  # OA-LIM-8
             push_buffer_bytes=options.limits.stream_push_buffer_bytes,  # OA-LIM-16
         )
@@ -472,7 +428,7 @@ class Server:
             limits=self.limits,
             extensions=self.extensions,
             port_allocator=free_port,
-            auth=_auth_gate(self.options.auth_secrets),  # 14.3; None in legacy mode
+            auth=auth_gate(self.options.auth_secrets),  # 14.3; None in legacy mode
         )
         self.router.status_extra = self._status_counters
         self.router.queued_bytes = self.dispatcher.queued_bytes  # OA-LIM-14
@@ -616,52 +572,11 @@ async def _bounded(stage: str, coro: Coroutine[object, object, None], limit: flo
         log.warning("event=shutdown phase=%s_error detail=%r", stage, str(exc))
 
 
-def _delivery_options(options: ServerOptions) -> DeliveryOptions:
-    """The delivery timing, with the retry limits the server advertises (OA-DELIV-15)."""
-    limits = options.limits
-    most = limits.retry_deadline_ms / 1000
-    return replace(
-        options.delivery,
-        retries=limits.delivery_retries,
-        backoff_s=tuple(min(b, most) for b in options.delivery.backoff_s),
-    )
-
-
-def _auth_gate(secrets: Mapping[str, str] | None) -> AuthGate | None:
-    """Return the secure-mode gate for `secrets`, or None in legacy mode (OA-AUTH-1)."""
-    return AuthGate(secrets) if secrets is not None else None
-
-
-def _extensions(wanted: frozenset[str], store: HistoryStore) -> frozenset[str]:
-    """Advertise `durable` only with a durable store (OA-WB-9)."""
-    return wanted | {"durable"} if store.durable else wanted - {"durable"}
-
-
-def _main_port(given: int | None, config: ServerConfig) -> int:
-    """The port to listen on: the one given, else the configuration's (OA-CONF-7), else 10000."""
-    if given is not None:
-        return given
-    configured = config.port
-    if configured is None:
-        return DEFAULT_PORT
-    if not 0 <= configured <= 65535:
-        raise ConfigError(f"<global><port>: not a port number: {configured}")
-    return configured
-
-
-def _config(options: ServerOptions) -> ServerConfig:
-    if options.config is not None:
-        return options.config
-    if options.config_path is not None:
-        return load_config(options.config_path)  # raises ConfigError
-    return default_config()
-
-
 async def start_server(options: ServerOptions | None = None) -> Server:
     """Start a server and return it listening (raises ConfigError, StoreSpecError, OSError)."""
     options = options or ServerOptions()
-    config = _config(options)
-    options = replace(options, port=_main_port(options.port, config))
+    config = config_of(options)
+    options = replace(options, port=main_port(options.port, config))
     store = open_store(options.store)
     server = Server(options, config, store)
     try:

@@ -21,58 +21,30 @@ import heapq
 import logging
 import time
 from collections import deque
-from collections.abc import Awaitable, Callable, Coroutine
+from collections.abc import Coroutine
 from dataclasses import dataclass, field, replace
 from functools import partial
-from typing import Protocol
+from typing import TYPE_CHECKING
 
 from openair.protocol.connection import answer_type
 from openair.protocol.errors import ConnectionClosedError, OpenAIRError
 from openair.protocol.message import Message
 from openair.server.aio.protocol import ServerConnection, Wire
-from openair.server.aio.scheduling import DEFAULT_TURN_BUDGET, TurnGate
 from openair.server.core.queues import DeliveryQueue, QueueItem
 from openair.server.core.router import Delivery, ModuleInfo
 from openair.server.core.samplebuffer import SampleBuffer
 from openair.server.core.streamspec import StoredSample
 from openair.server.core.streamwire import push_frame, push_message
 
-__all__ = ["DeliveryHost", "DeliveryOptions", "Dispatcher", "ModuleCounters"]
+if TYPE_CHECKING:
+    from openair.server.aio.dispatcher import Dispatcher
+
+__all__ = ["ModuleCounters", "ModuleDelivery"]
 
 log = logging.getLogger("openair.server")
 
 #: The longest stop() waits for a module's cancelled tasks to end (shutdown must finish).
 _STOP_WAIT_S = 1.0
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class DeliveryOptions:
-    """Timing of deliveries: acknowledgement deadline, retries and their back-off (seconds)."""
-
-    deadline_s: float = 10.0  # OA-DELIV-11
-    retries: int = 2  # OA-DELIV-7
-    backoff_s: tuple[float, ...] = (0.05, 0.25)
-    connect_timeout_s: float = 5.0
-    turn_budget: int = DEFAULT_TURN_BUDGET  # OA-PRIO-5: deliveries started per loop turn
-
-
-class DeliveryHost(Protocol):
-    """What the dispatcher needs from the server."""
-
-    def module_info(self, name: str) -> ModuleInfo | None:
-        """The router's view of a module (None when it is unknown)."""
-
-    def connection(self, conn_id: int) -> ServerConnection | None:
-        """The open connection with this id, if any."""
-
-    def connect(self, module: str, address: str, port: int) -> Awaitable[ServerConnection]:
-        """Open an OUTBOUND connection to a module's listening port."""
-
-    def delivered(self, module: str, count: int) -> None:
-        """Report acknowledged deliveries (for the router's counters)."""
-
-    def dropped(self, module: str, count: int, reason: str) -> None:
-        """Report deliveries dropped (QUEUE_OVERFLOW) or abandoned (DELIVERY_FAILED)."""
 
 
 @dataclass(slots=True)
@@ -506,133 +478,3 @@ class ModuleDelivery:
         if self._outbound is not None:
             self._outbound.close()
         return left
-
-
-class Dispatcher:
-    """Every module's delivery queue and task."""
-
-    def __init__(
-        self,
-        host: DeliveryHost,
-        *,
-        capacity: int,
-        max_in_flight: int,
-        options: DeliveryOptions | None = None,
-        max_queue_bytes: int = 0,
-        push_buffer_bytes: int = 0,
-    ) -> None:
-        self.host = host
-        self.capacity = capacity
-        self.max_queue_bytes = max_queue_bytes  # OA-LIM-8: 0 = no byte bound
-        self.push_buffer_bytes = push_buffer_bytes  # OA-LIM-16: per subscribed stream
-        self.max_in_flight = max_in_flight
-        self.options = options or DeliveryOptions()
-        self.modules: dict[str, ModuleDelivery] = {}
-        self.gate = TurnGate(self.options.turn_budget)  # whiteboard priority across modules
-        self._idle_waiters: list[asyncio.Future[None]] = []
-        self.on_drop: Callable[[str, QueueItem], None] | None = None
-        #: Called with (module, item) for each acknowledged delivery: the monitor's latency tap.
-        self.on_delivered: Callable[[str, QueueItem], None] | None = None
-
-    def push(self, delivery: Delivery) -> None:
-        """Queue a delivery for its module, dropping per OA-DELIV-9 when the queue is full."""
-        md = self.modules.get(delivery.module)
-        if md is None:
-            md = self.modules[delivery.module] = ModuleDelivery(delivery.module, self)
-        victims = md.push(delivery)
-        if victims:
-            self.host.dropped(delivery.module, len(victims), "QUEUE_OVERFLOW")
-            dropped = md.queue.counters.dropped
-            if dropped == len(victims) or dropped // 1000 != (dropped - len(victims)) // 1000:
-                log.warning(
-                    "event=overflow_drop module=%s dropped_total=%d priority=%g queue_bytes=%d",
-                    delivery.module,
-                    dropped,
-                    victims[-1].priority,
-                    md.queue.held_bytes,
-                )
-
-    def push_sample(self, module: str, stream: str, sample: StoredSample, capacity: int) -> None:
-        """Buffer a stream sample for a subscribed module (OA-STREAM-8, OA-STREAM-14)."""
-        md = self.modules.get(module)
-        if md is None:
-            md = self.modules[module] = ModuleDelivery(module, self)
-        dropped = md.push_sample(stream, sample, capacity)
-        if dropped:
-            self.host.dropped(module, dropped, "SAMPLE_DROPPED")
-
-    def poke(self, module: str) -> None:
-        """Tell a module's task that its paths may have changed."""
-        md = self.modules.get(module)
-        if md is not None:
-            md.poke()
-
-    async def discard(self, module: str) -> int:
-        """Drop a module's queue and task (its session ended, OA-SESS-15); return the count."""
-        md = self.modules.pop(module, None)
-        if md is None:
-            return 0
-        left = await md.stop()
-        log.info("event=queue_discarded module=%s count=%d", module, left)
-        self.idle_check()
-        return left
-
-    @property
-    def pending(self) -> int:
-        """Deliveries not yet finished, over all modules."""
-        return sum(md.pending for md in self.modules.values())
-
-    def idle_check(self) -> None:
-        """Wake `drained()` waiters when nothing is eligible or in flight any more."""
-        if not self._idle_waiters or self._busy():
-            return
-        for waiter in self._idle_waiters:
-            if not waiter.done():
-                waiter.set_result(None)
-        self._idle_waiters.clear()
-
-    def _busy(self) -> bool:
-        return any(md.pending for md in self.modules.values())
-
-    async def drained(self) -> None:
-        """Return once every queue is empty and nothing is in flight (OA-SESS-24's flush)."""
-        while self._busy():
-            waiter = asyncio.get_running_loop().create_future()
-            self._idle_waiters.append(waiter)
-            await waiter
-
-    async def stop(self) -> int:
-        """Stop every task; count what was left as DELIVERY_FAILED (OA-SESS-24)."""
-        left = 0
-        modules = list(self.modules.items())
-        counts = await asyncio.gather(*(md.stop() for _, md in modules))  # each one bounded
-        for (name, md), n in zip(modules, counts, strict=True):
-            if n:
-                md.counters.failed += n
-                self.host.dropped(name, n, "DELIVERY_FAILED")
-            left += n
-        self.modules.clear()
-        return left
-
-    def queued_bytes(self) -> int:
-        """The bytes every module's queue holds together (OA-LIM-14)."""
-        return sum(md.queue.held_bytes for md in self.modules.values())
-
-    def counters(self) -> dict[str, dict[str, int]]:
-        """Per module: queue depth, items in, delivered, dropped, failed, refused, retried."""
-        return {
-            name: {
-                "depth": len(md.queue),
-                "in": md.queue.counters.pushed,
-                "delivered": md.counters.delivered,
-                "dropped": md.queue.counters.dropped,
-                "failed": md.counters.failed,
-                "refused": md.counters.refused,
-                "retried": md.counters.retried,
-                "expired": md.counters.expired,
-                "discarded": md.queue.counters.discarded,
-                "bytes": md.queue.held_bytes,  # OA-LIM-8
-                "dropped_bytes": md.queue.counters.dropped_bytes,
-            }
-            for name, md in self.modules.items()
-        }

@@ -43,7 +43,8 @@ from typing import TYPE_CHECKING, cast
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
 from openair.protocol.wakeup import WAKEUP_TYPE, parse_wakeup
-from openair.server.aio.delivery import Dispatcher, ModuleDelivery
+from openair.server.aio.delivery import ModuleDelivery
+from openair.server.aio.dispatcher import Dispatcher
 from openair.server.core.config import ConfigError
 from openair.server.core.queues import QueueItem
 from openair.server.core.router import Delivery

@@ -1,8 +1,9 @@
 """What makes a module not sans-I/O (issue #17), read from its source with `ast`.
 
 A module of `openair/protocol` or `openair/server/core` may not import a module that waits
-on or talks to the outside world (asyncio, socket, threading, selectors, ssl, subprocess, …)
-nor `time`, and may not read the clock by any other road (`datetime.now()`, `loop.time()`).
+on or talks to the outside world (asyncio, socket, threading, selectors, ssl, subprocess,
+sqlite3, …) nor `time`, and may not read the clock by any other road (`datetime.now()`,
+`loop.time()`).
 Lazy imports count (they run); imports under `if TYPE_CHECKING:` do not.
 """
 
@@ -24,6 +25,7 @@ FORBIDDEN_MODULES = frozenset(
         "ssl",
         "subprocess",
         "multiprocessing",
+        "sqlite3",  # a durable store is the adapter's (server/aio/stores.py)
         "concurrent",
         "time",
     }

@@ -103,6 +103,7 @@ def _module(tmp_path: Path, source: str) -> Path:
         ("def f():\n    import selectors\n", "imports selectors"),  # lazy: still runs
         ("def f():\n    from ssl import create_default_context\n", "imports ssl"),
         ("import subprocess\n", "imports subprocess"),
+        ("def f():\n    import sqlite3\n", "imports sqlite3"),
         ("from concurrent.futures import ThreadPoolExecutor\n", "imports concurrent.futures"),
         ("import time\nNOW = time.time()\n", "imports time"),
         ("from time import monotonic\n", "imports time"),

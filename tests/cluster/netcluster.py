@@ -308,6 +308,12 @@ class Cluster:
                         proc.wait(10)
         for ns in reversed(self.namespaces):
             subprocess.run(["ip", "netns", "del", ns], capture_output=True, timeout=30)
+        keep = os.environ.get("OPENAIR_CLUSTER_KEEP_LOGS")  # a directory: the logs go there
+        if keep:
+            for log in self.workdir.glob("n*/*.log"):
+                target = Path(keep) / f"{self.tag}-{log.parent.name}-{log.name}"
+                target.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(log, target)
         shutil.rmtree(self.workdir, ignore_errors=True)
 
     def in_client_ns(self, *args: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:
@@ -325,6 +331,46 @@ def _kill_tree(proc: subprocess.Popen[bytes], sig: int) -> None:
     """Signal `proc` (an `ip netns exec` that exec'd its command, so one process) directly."""
     with contextlib.suppress(ProcessLookupError):
         os.kill(proc.pid, sig)
+
+
+async def stream_contents(
+    cluster: Cluster, whiteboard: str, prefix: str, timeout: float = 60.0
+) -> list[tuple[int, str]]:
+    """(wbid, content) of the posts whose type starts with `prefix`, read from JetStream itself
+    (not through a node): what the store holds, to tell a node's read model from the store.
+    Tried again until `timeout` while JetStream elects leaders after a fault."""
+    import nats
+    from nats.js.api import AckPolicy, ConsumerConfig
+
+    from openair.cluster.wire import decode_copy, stream_name, subject
+
+    deadline = time.monotonic() + timeout
+    nc = await nats.connect(servers=[f"nats://{n.address}:{NATS_PORT}" for n in cluster.nodes])
+    try:
+        js = nc.jetstream(timeout=10.0)
+        while True:
+            try:
+                last = int((await js.stream_info(stream_name(whiteboard))).state.last_seq or 0)
+                reader = await js.pull_subscribe(
+                    subject(whiteboard),
+                    stream=stream_name(whiteboard),
+                    config=ConsumerConfig(ack_policy=AckPolicy.NONE),
+                )
+                found, seq = [], 0
+                while seq < last:
+                    for msg in await reader.fetch(1000, timeout=10.0):
+                        seq = int(msg.metadata.sequence.stream)
+                        copy = decode_copy(msg.data, seq)
+                        if copy is not None and copy.type.startswith(prefix):
+                            found.append((seq, copy.content))
+                await reader.unsubscribe()
+                return found
+            except Exception:
+                if time.monotonic() > deadline:
+                    raise
+                await asyncio.sleep(1.0)
+    finally:
+        await nc.close()
 
 
 def run_in(ns: str, coro: Coroutine[object, object, _T], timeout: float = 120.0) -> _T:

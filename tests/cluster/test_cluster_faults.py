@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable
 
 import pytest
-from netcluster import Cluster, Node, run_in
+from netcluster import Cluster, Node, run_in, stream_contents
 
 from openair.client.module import Module
 from openair.protocol.content import RetrieveSpec
@@ -74,8 +74,10 @@ def _check_history(acked: list[str], *histories: list[Message]) -> None:
         wbids = [m.wbid for m in history]
         assert len(set(wbids)) == len(wbids), "a wbid given twice"
         missing = set(acked) - set(contents)
+        elsewhere = {m.content: m.wbid for h in histories for m in h if m.content in missing}
         assert not missing, f"acknowledged, then lost: {len(missing)} of {len(acked)}, e.g. " + (
-            f"{sorted(missing)[:10]}; held {len(contents)}, wbids {min(wbids)}..{max(wbids)}"
+            f"{sorted(missing)[:10]}; held {len(contents)}, wbids {min(wbids)}..{max(wbids)}; "
+            f"their wbids elsewhere {sorted(elsewhere.items(), key=lambda kv: kv[1] or 0)[:10]}"
         )
         assert len(set(contents)) == len(contents), "a post stored twice"
         assert [(m.wbid, m.content) for m in history] == first
@@ -125,6 +127,8 @@ def test_kill_9_during_a_post_storm_loses_nothing_acknowledged(cluster: Cluster)
     try:
         acked, after, h1, h2 = run_in(cluster.client_ns, storm(), timeout=120)
         assert len(acked) > 20 and after > 0, (len(acked), after)  # the survivors went on
+        stored = {c for _, c in run_in(cluster.client_ns, stream_contents(cluster, "Storm", tag))}
+        assert set(acked) <= stored, f"the store lost {sorted(set(acked) - stored)[:10]}"
         _check_history(acked, h1, h2)
     finally:
         cluster.restart(victim)
@@ -182,6 +186,8 @@ def test_a_node_cut_off_fails_posts_clearly_and_loses_nothing(cluster: Cluster) 
         assert "STORE_FAILED" in failure or "StoreFailed" in failure, failure
     assert len(failures) + len(acked) == 4
     others = run_in(cluster.client_ns, _history(cluster.nodes[0], f"{tag}.*"))
+    stored = run_in(cluster.client_ns, stream_contents(cluster, "WB1", tag))
+    assert set(acked) <= {c for _, c in stored}, f"the store lost a post: {acked} {stored}"
     _check_history(acked, others)
     assert set(acked) <= set(on_victim)
 

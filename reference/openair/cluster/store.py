@@ -19,9 +19,10 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import itertools
 import json
 import logging
-import struct
+import secrets
 import threading
 import time
 from collections import deque
@@ -30,9 +31,16 @@ from dataclasses import dataclass, field
 from functools import partial
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from openair.protocol.codec import decode_message, to_frame
+from openair.cluster.tasks import cancel_all, expire, quietly
+from openair.cluster.wire import (
+    ClusterSpec,
+    decode_copy,
+    encode_copy,
+    parse_spec,
+    stream_name,
+    subject,
+)
 from openair.protocol.fastcodec import derived
-from openair.protocol.framing import binary_sizes
 from openair.protocol.message import Message
 from openair.server.core.store import StoreSpecError
 
@@ -43,83 +51,12 @@ __all__ = ["ClusterSpec", "ClusterStore", "decode_copy", "encode_copy", "parse_s
 
 log = logging.getLogger("openair.cluster")
 _T = TypeVar("_T")
-_LEN = struct.Struct(">I")
-_PREFIX = "openair.wb."
+_ID = "Nats-Msg-Id"  # the header that names a node's own copy when it comes back
 _NODES = "openair.node."  # heartbeats: the node's name in hex, its bound modules as JSON
 _BEAT_S = 0.5
 _DEAD_S = 3.0  # a node not heard for this long is dead (OA-CLU-7)
 _WATCH_S = 0.5  # how often a node compares what it read with each stream's end
 _HEARTBEAT_S = 1.0  # the ordered consumers' idle heartbeat
-
-
-@dataclass(frozen=True, slots=True)
-class ClusterSpec:
-    """Which cluster to join: the node's name and the NATS servers to try, in order."""
-
-    node: str
-    urls: tuple[str, ...]
-    timeout_s: float = 5.0
-
-
-def parse_spec(spec: str) -> ClusterSpec:
-    """Read `NODE@nats://HOST:PORT[,nats://…]` (the `cluster:` store of `openair serve`)."""
-    node, sep, rest = spec.rpartition("@")
-    urls = tuple(u.strip() for u in (rest if sep else spec).split(",") if u.strip())
-    if not urls or any(not u.startswith(("nats://", "tls://")) for u in urls):
-        raise StoreSpecError(f"bad cluster address {spec!r}: give nats://HOST:PORT[,...]")
-    return ClusterSpec(node=node or "node", urls=urls)
-
-
-def stream_name(whiteboard: str) -> str:
-    """The JetStream stream of a whiteboard (any name: hex keeps it a valid stream name)."""
-    return "OAWB_" + whiteboard.encode().hex()
-
-
-def subject(whiteboard: str) -> str:
-    """The subject posts to `whiteboard` are published on."""
-    return _PREFIX + whiteboard.encode().hex()
-
-
-def encode_copy(msg: Message) -> bytes:
-    """One stored copy as a JetStream payload: XML length, canonical XML, binary chunks."""
-    frame = to_frame(msg)
-    return b"".join((_LEN.pack(len(frame.xml)), frame.xml, *frame.chunks))
-
-
-def decode_copy(payload: bytes, wbid: int) -> Message | None:
-    """Decode a payload written by `encode_copy`, its wbid set; None when it does not decode."""
-    try:
-        (size,) = _LEN.unpack_from(payload)
-        xml = payload[4 : 4 + size]
-        binary = payload[4 + size :]
-        chunks: list[bytes] = []
-        pos = 0
-        for n in binary_sizes(xml):
-            chunks.append(binary[pos : pos + n])
-            pos += n
-        if pos != len(binary):
-            return None
-        return derived(decode_message(xml, tuple(chunks)), wbid=wbid)
-    except Exception:  # a payload another program published on our subject: skip it
-        return None
-
-
-async def _quietly(coro: Coroutine[Any, Any, Any]) -> None:
-    with contextlib.suppress(Exception):
-        await coro
-
-
-async def _cancel_all() -> None:
-    """Cancel every other task of the client's loop (the client's own helpers) and wait."""
-    tasks = [t for t in asyncio.all_tasks() if t is not asyncio.current_task()]
-    for task in tasks:
-        task.cancel()
-    await asyncio.gather(*tasks, return_exceptions=True)
-
-
-def _expire(ack: asyncio.Future[Any]) -> None:
-    if not ack.done():
-        ack.cancel()
 
 
 @dataclass(slots=True)
@@ -128,11 +65,13 @@ class _Board:
 
     name: str
     pending: deque[Message] = field(default_factory=deque)
-    through: int = 0  # the highest stream sequence received
+    through: int = 0  # every stream sequence up to this one is received (or discarded)
     stalled_at: int = -1  # `through` when the stream was last seen ahead of it
     sub: Any = None  # the consumer's subscription
     generation: int = 0  # of the subscription: copies from an older one are ignored
     skipped: int = 0  # payloads that did not decode
+    filled: int = 0  # copies a consumer skipped, fetched from the stream (OA-CLU-1)
+    lock: asyncio.Lock = field(default_factory=asyncio.Lock)  # one copy taken at a time
 
 
 class ClusterStore:
@@ -155,13 +94,16 @@ class ClusterStore:
         self._peers: dict[str, tuple[float, tuple[str, ...]]] = {}  # node -> (heard, modules)
         self._lost: list[str] = []
         self._retry: list[str] = []  # Lost notices that failed, taken again at the next beat
-        self._outbox: deque[tuple[str, bytes, concurrent.futures.Future[int] | None]] = deque()
+        self._outbox: deque[tuple[str, bytes, str, concurrent.futures.Future[int] | None]] = deque()
+        self._ids = map(f"{secrets.token_hex(6)}-{{}}".format, itertools.count(1))
+        self._echoes: dict[str, int] = {}  # own copies' ids -> the sequence they came back at
         self._inflight = 0  # publishes queued or sent, not settled yet
         self._flushing = False
         self._tasks: set[asyncio.Task[None]] = set()
         self.published = 0
         self.failed = 0  # noreply posts JetStream did not store
         self.late = 0  # acknowledged posts not seen back in time (adopted without the earlier)
+        self.misnumbered = 0  # acknowledgements whose sequence was not where the copy came back
 
     def __repr__(self) -> str:
         return f"ClusterStore(node={self.spec.node!r}, urls={','.join(self.spec.urls)!r})"
@@ -218,7 +160,7 @@ class ClusterStore:
 
         board.generation += 1  # from now on only the new subscription's copies count
         if board.sub is not None:  # in the background: its server may be the one that died
-            self._spawn(_quietly(board.sub.unsubscribe()))
+            self._spawn(quietly(board.sub.unsubscribe()))
         board.sub = await self._js.subscribe(
             subject(board.name),
             stream=stream_name(board.name),
@@ -255,6 +197,8 @@ class ClusterStore:
                     )
                     with contextlib.suppress(Exception):
                         await self._subscribe(board, through + 1)
+                    board.stalled_at = -1  # the new consumer has two checks to deliver
+                    continue
                 board.stalled_at = through if behind else -1
 
     # -- liveness (OA-CLU-7) -------------------------------------------------------------------
@@ -354,25 +298,69 @@ class ClusterStore:
         self, board: _Board, generation: int
     ) -> Callable[[Any], Coroutine[Any, Any, None]]:
         async def received(msg: Any) -> None:
-            if generation != board.generation:
-                return  # a replaced subscription: its copies interleave with the new one's
-            seq = int(msg.metadata.sequence.stream)
-            if seq <= board.through:
-                return  # a consumer read again from an earlier point: held already
-            copy = decode_copy(msg.data, seq)
-            with self._cond:
-                if copy is None:
-                    board.skipped += 1
-                else:
-                    board.pending.append(copy)
-                board.through = max(board.through, seq)
-                self._cond.notify_all()
-                schedule = not self._scheduled and self._notify is not None
-                self._scheduled = True
-            if schedule and self._notify is not None:
-                self._notify()
+            async with board.lock:
+                if generation != board.generation:
+                    return  # a replaced subscription: its copies interleave with the new one's
+                seq = int(msg.metadata.sequence.stream)
+                if seq <= board.through:
+                    return  # a consumer read again from an earlier point: held already
+                if seq > board.through + 1 and not await self._fill(board, seq):
+                    if generation == board.generation:
+                        board.generation += 1  # read again from the gap (the watchdog)
+                    return
+                if generation == board.generation:
+                    self._accept(board, seq, msg.data, (msg.headers or {}).get(_ID))
 
         return received
+
+    async def _fill(self, board: _Board, seq: int) -> bool:
+        """Fetch the copies before `seq` that the consumer did not deliver (OA-CLU-1).
+
+        An ordered consumer checks its own delivery sequence, not the stream's: one recreated
+        after a fault can deliver a later copy without an earlier one. `through` counts only
+        copies received without a gap, so the gap is read from the stream itself (its leader);
+        copies the stream's limit discarded (OA-WB-6) are not missing. False when the stream
+        cannot be read: the copy at `seq` is not taken and the consumer is read again from the
+        gap (the watchdog).
+        """
+        from nats.js.errors import NotFoundError
+
+        name = stream_name(board.name)
+        generation = board.generation
+        try:
+            info = await self._js.stream_info(name)
+            for missing in range(max(board.through + 1, int(info.state.first_seq or 1)), seq):
+                try:
+                    raw = await self._js.get_msg(name, missing)
+                except NotFoundError:
+                    continue  # discarded since (OA-WB-6)
+                if generation != board.generation:
+                    return False
+                self._accept(board, missing, raw.data or b"", (raw.headers or {}).get(_ID))
+                board.filled += 1
+                log.warning("event=cluster_gap_filled whiteboard=%s wbid=%d", board.name, missing)
+        except Exception as exc:
+            gap = f"from={board.through + 1} to={seq - 1}"
+            log.warning("event=cluster_gap whiteboard=%s %s detail=%r", board.name, gap, str(exc))
+            return False
+        return generation == board.generation
+
+    def _accept(self, board: _Board, seq: int, data: bytes, ident: str | None) -> None:
+        """Hand one copy over: the next after `through` (client thread)."""
+        copy = decode_copy(data, seq)
+        with self._cond:
+            if ident is not None and ident in self._echoes:
+                self._echoes[ident] = seq  # this node's own post: `publish` waits for it
+            if copy is None:
+                board.skipped += 1
+            else:
+                board.pending.append(copy)
+            board.through = seq
+            self._cond.notify_all()
+            schedule = not self._scheduled and self._notify is not None
+            self._scheduled = True
+        if schedule and self._notify is not None:
+            self._notify()
 
     def notified(self) -> None:
         """The server took the notice: the next arrival notifies again."""
@@ -389,7 +377,7 @@ class ClusterStore:
             except Exception as exc:  # closing a client cut off from the cluster
                 log.warning("event=cluster_close_error detail=%r", str(exc))
         try:
-            asyncio.run_coroutine_threadsafe(_cancel_all(), loop).result(2.0)
+            asyncio.run_coroutine_threadsafe(cancel_all(), loop).result(2.0)
         except Exception as exc:  # a task that will not end: the thread is a daemon
             log.warning("event=cluster_close_error detail=%r", str(exc))
         loop.call_soon_threadsafe(loop.stop)
@@ -412,17 +400,46 @@ class ClusterStore:
     # -- SequencedStore --------------------------------------------------------------------------
 
     def publish(self, whiteboard: str, msg: Message) -> int:
-        """Publish one copy; return its stream sequence once JetStream acknowledged it."""
+        """Publish one copy; return its wbid: the stream sequence it comes back under.
+
+        The copy is the whiteboard's at the sequence the consumer reads it at, which every
+        node reads (OA-CLU-1); by then every earlier copy is here to be adopted first. An
+        acknowledgement's sequence was seen to name another node's post after a partition
+        healed (the store elected leaders again); adopting the own copy there dropped that
+        post. When the copy does not come back in time, the acknowledged sequence is used only
+        if the stream holds this copy there; otherwise the post fails (STORE_FAILED: it is
+        stored, and is adopted when it comes back, OA-CLU-2).
+        """
         done: concurrent.futures.Future[int] = concurrent.futures.Future()
-        self._enqueue(whiteboard, msg, done)
-        seq = done.result(self.timeout_s + 1.0)
-        self.published += 1
-        # Every earlier copy must be here to be adopted first (OA-CLU-1); the post's own copy
-        # need not come back: the whiteboard adopts it from `msg`, and skips the echo.
-        if not self._wait_through(whiteboard, seq - 1, self.timeout_s):
+        ident = self._enqueue(whiteboard, msg, done, echo=True)
+        try:
+            acked = done.result(self.timeout_s + 1.0)
+            self.published += 1
+            with self._cond:
+                back = self._cond.wait_for(lambda: self._echoes[ident] > 0, self.timeout_s)
+                seq = self._echoes[ident] if back else acked
+        finally:
+            with self._cond:
+                self._echoes.pop(ident, None)
+        if not back:
             self.late += 1
             log.warning("event=cluster_late whiteboard=%s wbid=%d", whiteboard, seq)
+            if not self._holds(whiteboard, acked, ident):  # OA-CLU-2: it may appear later
+                raise TimeoutError(f"{whiteboard}: the post did not come back from the store")
+        elif seq != acked:
+            self.misnumbered += 1
+            log.warning(
+                "event=cluster_misnumbered whiteboard=%s acked=%d stored=%d", whiteboard, acked, seq
+            )
         return seq
+
+    def _holds(self, whiteboard: str, seq: int, ident: str) -> bool:
+        """Whether the stream holds this node's copy `ident` at `seq` (asked of its leader)."""
+        try:
+            raw = self._call(self._js.get_msg(stream_name(whiteboard), seq), self.timeout_s)
+        except Exception:
+            return False
+        return bool((raw.headers or {}).get(_ID) == ident)
 
     def publish_later(self, whiteboard: str, msg: Message) -> None:
         """Publish one copy without waiting (a noreply post, OA-CLU-5).
@@ -433,20 +450,33 @@ class ClusterStore:
         self._enqueue(whiteboard, msg, None)
 
     def _enqueue(
-        self, whiteboard: str, msg: Message, done: concurrent.futures.Future[int] | None
-    ) -> None:
-        """Queue a publish; one task on the client's loop sends them in order (one wbid order)."""
+        self,
+        whiteboard: str,
+        msg: Message,
+        done: concurrent.futures.Future[int] | None,
+        *,
+        echo: bool = False,
+    ) -> str:
+        """Queue a publish; one task on the client's loop sends them in order (one wbid order).
+
+        Return the copy's id (its `Nats-Msg-Id`); with `echo`, the sequence it comes back at
+        is kept for `publish`.
+        """
         loop = self._loop
         if loop is None:
             raise RuntimeError("the cluster store is closed")
-        item = (whiteboard, encode_copy(derived(msg, wbid=None)), done)
+        ident = next(self._ids)
+        item = (whiteboard, encode_copy(derived(msg, wbid=None)), ident, done)
         with self._cond:
+            if echo:
+                self._echoes[ident] = 0
             self._outbox.append(item)
             self._inflight += 1
             wake = not self._flushing
             self._flushing = True
         if wake:
             loop.call_soon_threadsafe(self._flush_soon)
+        return ident
 
     def _flush_soon(self) -> None:
         self._spawn(self._flush())
@@ -459,15 +489,18 @@ class ClusterStore:
                 if not self._outbox:
                     self._flushing = False
                     return
-                whiteboard, payload, done = self._outbox.popleft()
+                whiteboard, payload, ident, done = self._outbox.popleft()
             try:
                 ack = await self._js.publish_async(
-                    subject(whiteboard), payload, stream=stream_name(whiteboard)
+                    subject(whiteboard),
+                    payload,
+                    stream=stream_name(whiteboard),
+                    headers={_ID: ident},
                 )
             except Exception as exc:
                 self._settle(done, None, exc)
                 continue
-            timer = loop.call_later(self.timeout_s, _expire, ack)
+            timer = loop.call_later(self.timeout_s, expire, ack)
             ack.add_done_callback(partial(self._acked, done, timer))
 
     def _acked(
@@ -550,11 +583,14 @@ class ClusterStore:
         with self._cond:
             pending = sum(len(b.pending) for b in self._boards.values())
             skipped = sum(b.skipped for b in self._boards.values())
+            filled = sum(b.filled for b in self._boards.values())
         return {
             "node": self.spec.node,
             "published": self.published,
             "failed": self.failed,
             "late": self.late,
+            "misnumbered": self.misnumbered,
             "pending": pending,
             "skipped": skipped,
+            "filled": filled,
         }

@@ -10,6 +10,7 @@ packages, as a machine without them would.
 from __future__ import annotations
 
 import re
+import signal
 import subprocess
 import sys
 import textwrap
@@ -155,3 +156,27 @@ def test_an_application_command_without_its_extra_names_it(
     )
     assert "exit 2" in done.stdout, done.stdout + done.stderr
     assert f"pip install 'openair-kit[{extra}]'" in done.stderr
+
+
+def test_openair_serve_without_the_monitor_extra_names_it() -> None:
+    """`openair serve` starts, and says on stderr which extra the web monitor needs."""
+    code = """
+        import sys
+        from openair.cli import main
+        sys.argv = ["openair", "serve", "--host", "127.0.0.1", "--port", "0"]
+        main()
+        """
+    script = _REFUSE.format(hidden=("h11",)) + textwrap.dedent(code)
+    with subprocess.Popen(
+        [sys.executable, "-c", script],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    ) as proc:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()  # blocks until the server is up (or exits: "")
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    assert line.startswith("listening on "), line + err
+    assert "no web monitor: pip install 'openair-kit[monitor]'" in err
+    assert "Traceback" not in err

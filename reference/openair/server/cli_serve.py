@@ -16,6 +16,7 @@ from typing import Any
 
 import click
 
+from openair.extras import install_hint
 from openair.protocol.auth import SecretsError
 from openair.secretsfile import load_secrets
 from openair.server.aio.app import Server, ServerOptions, start_server
@@ -116,6 +117,8 @@ async def _run(options: ServerOptions) -> None:
     click.echo(f"listening on {server.host}:{server.port} (whiteboards: {boards})")
     if server.monitor is not None:
         click.echo(_monitor_line(server))
+    elif options.monitor and options.auth_secrets is None:  # the application is not installed
+        click.echo(f"no web monitor: {install_hint('monitor')}", err=True)
     sys.stdout.flush()
     await server.serve_forever()
     # Stopped: a late signal (a supervisor repeating SIGTERM) has nothing left to force.

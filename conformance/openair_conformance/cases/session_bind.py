@@ -54,23 +54,39 @@ def _check_bind_refused(ctx: CaseContext, reply: Message, *, what: str, req: str
     title="BIND without content is answered BIND_ACCEPT with a port as decimal text",
     section="6.3",
     requirements=("OA-SESS-3",),
-    allowed=("BIND_ACCEPT whose content is a port 1–65535 in decimal (the server chooses it)",),
+    allowed=(
+        "BIND_ACCEPT whose content is a port 1–65535 in decimal (the server chooses it); two "
+        "modules bound from one address get two ports",
+    ),
 )
 async def bind_accepted(ctx: CaseContext) -> None:
-    """BIND a fresh name on a raw connection; the content must be the listening port."""
-    raw = await ctx.raw()
-    await raw.send_message(Message(type="BIND", sender=ctx.name("B"), to="CNS"))
-    reply = await raw.read_message()
+    """BIND two fresh names on two raw connections from this host, both without content;
+    each reply must be a listening port, and the two ports must differ.
+
+    Catches: a port counter that does not move on (or skips the ports in use), which gives a
+    second module the port the first listens on (issue #15).
+    """
+    ports = []
+    for suffix in ("B", "C"):
+        raw = await ctx.raw()
+        await raw.send_message(Message(type="BIND", sender=ctx.name(suffix), to="CNS"))
+        reply = await raw.read_message()
+        ctx.check(
+            reply.type == "BIND_ACCEPT",
+            f"BIND was answered {reply.type} {reply.content!r}",
+            expected="BIND_ACCEPT (OA-SESS-3)",
+        )
+        text = reply.content.strip()
+        ctx.check(
+            bool(_DECIMAL.match(text)) and 0 < int(text) < 65536,
+            f"BIND_ACCEPT content {reply.content!r} is not a port number",
+            expected="a decimal port number 1–65535 (OA-SESS-3)",
+        )
+        ports.append(int(text))
     ctx.check(
-        reply.type == "BIND_ACCEPT",
-        f"BIND was answered {reply.type} {reply.content!r}",
-        expected="BIND_ACCEPT (OA-SESS-3)",
-    )
-    text = reply.content.strip()
-    ctx.check(
-        bool(_DECIMAL.match(text)) and 0 < int(text) < 65536,
-        f"BIND_ACCEPT content {reply.content!r} is not a port number",
-        expected="a decimal port number 1–65535 (OA-SESS-3)",
+        ports[0] != ports[1],
+        f"both modules were told to listen on port {ports[0]}",
+        expected="two ports: two modules at one address cannot share one (OA-SESS-3, OA-SESS-4)",
     )
 
 
@@ -105,7 +121,8 @@ async def bind_nolisten_accepted(ctx: CaseContext) -> None:
     ),
 )
 async def bind_port(ctx: CaseContext) -> None:
-    """Ask for a free port; ask for the same port under another name; ask for 0 and 70000.
+    """Ask for a free port; ask for the same port under two other names (sorting after and
+    before the first); ask for 0 and 70000.
 
     Catches: a server that ignores the requested port and answers another one, that gives two
     modules the same port at one address, or that accepts ports outside 1–65535.
@@ -131,10 +148,12 @@ async def bind_port(ctx: CaseContext) -> None:
             f"BIND asking for port {port} was accepted with {first.content!r}",
             expected=f"BIND_ACCEPT naming {port}, or BIND_ERROR (OA-SESS-4)",
         )
-        second = await (await ctx.raw()).request(bind("B", port))
-        _check_bind_refused(
-            ctx, second, what=f"a second module asking for port {port}", req="OA-SESS-4"
-        )
+        # Names that sort after and before the holder's: the refusal must not depend on it.
+        for suffix in ("B", "0"):
+            second = await (await ctx.raw()).request(bind(suffix, port))
+            _check_bind_refused(
+                ctx, second, what=f"module {suffix} asking for port {port} too", req="OA-SESS-4"
+            )
     else:
         _check_bind_refused(ctx, first, what=f"BIND asking for port {port}", req="OA-SESS-4")
     for bad in (0, 70000):

@@ -252,7 +252,7 @@ def _events(mon: Monitor, request: Request, peer: str, args: list[str]) -> Event
     if not topics or not topics <= TOPICS:
         raise HttpError(400, f"topics must be among {', '.join(sorted(TOPICS))}")
     board = params.get("wb", "")
-    if board and mon.server.router.whiteboard(board) is None:
+    if board and mon.server.whiteboard(board) is None:
         raise HttpError(404, f"no whiteboard {board!r}")
     flt = _filter(params, board)
     since = _int_param(params, "since", None, low=0)
@@ -302,7 +302,7 @@ def _priority(fields: dict[str, object]) -> float | None:
 def _post_message(mon: Monitor, fields: dict[str, object], now_ns: int) -> Message:
     """Build the post a client would send, and pass it through the codec both ways."""
     to = _text(fields, "to")
-    if mon.server.router.whiteboard(to) is None:
+    if mon.server.whiteboard(to) is None:
         raise HttpError(400, f"to must name a whiteboard, not {to!r}")
     kind = _text(fields, "type").strip()
     if kind in _COMMANDS:
@@ -339,7 +339,7 @@ def _post(mon: Monitor, request: Request, peer: str, args: list[str]) -> Respons
     outcome = server.inject(msg, received_ns=now_ns)
     reply = outcome.replies[0] if outcome.replies else None
     accepted = reply is not None and reply.type == "RECEIVE_ACCEPT"
-    board = server.router.whiteboard(msg.to)
+    board = server.whiteboard(msg.to)
     body = {
         "accepted": accepted,
         "id": msg.id,

@@ -197,10 +197,10 @@ class Monitor:
     def _note_bound(self, counters: Mapping[str, object]) -> None:
         """Remember when each (module, connection) was first seen bound; forget the gone ones."""
         now_ms = time.time_ns() // _NS_PER_MS
-        router = self.server.router
+        server = self.server
         seen: set[tuple[str, int | None]] = set()
         for name in self.bound_names(counters):
-            info = router.module(name)
+            info = server.module(name)
             if info is not None:
                 key = (name, info.conn)
                 seen.add(key)
@@ -209,22 +209,22 @@ class Monitor:
             del self._since[key]
 
     def bound_names(self, counters: Mapping[str, object] | None = None) -> set[str]:
-        """The names of the modules bound now, as far as the router's tables name them."""
+        """The names of the modules bound now, as far as the server's counters name them."""
         counters = counters or self.server.counters()
         names: set[str] = set(self.tap.last_type) if len(self.tap.last_type) < 5000 else set()
         for key in ("modules", "registrations", "queues"):
             table = counters.get(key)
             if isinstance(table, Mapping):
                 names.update(str(n) for n in table)
-        router = self.server.router
-        return {n for n in names if router.module(n) is not None}
+        server = self.server
+        return {n for n in names if server.module(n) is not None}
 
     def since_ms(self, name: str, conn: int | None) -> int | None:
         """When the monitor first saw `name` bound on `conn` (Unix ms), if it is bound."""
         if conn is None:
             return None
         key = (name, conn)
-        if key not in self._since and self.server.router.module(name) is not None:
+        if key not in self._since and self.server.module(name) is not None:
             self._since[key] = time.time_ns() // _NS_PER_MS
         return self._since.get(key)
 

@@ -59,7 +59,7 @@ def whiteboards(
     boards = _table(counters or mon.server.counters(), "whiteboards")
     out: list[dict[str, object]] = []
     for name in mon.server.whiteboards:
-        wb = mon.server.router.whiteboard(name)
+        wb = mon.server.whiteboard(name)
         c = boards.get(name, {})
         received = _int(c.get("received"))
         out.append(
@@ -96,11 +96,11 @@ def modules(
     """Each module the server knows (bound now, or counted before): session, traffic, queue."""
     counters = counters or mon.server.counters()
     per_module, queues = _table(counters, "modules"), _table(counters, "queues")
-    router = mon.server.router
+    server = mon.server
     names = sorted(set(per_module) | set(queues) | mon.bound_names(counters))
     out: list[dict[str, object]] = []
     for name in names:
-        info = router.module(name)
+        info = server.module(name)
         c, q = per_module.get(name, {}), queues.get(name, {})
         posted, delivered = _int(c.get("requests")), _int(c.get("delivered"))
         out.append(
@@ -121,7 +121,7 @@ def modules(
                 "posted_rate": mon.rates.rate(f"out:{name}", now, posted),
                 "delivered_rate": mon.rates.rate(f"in:{name}", now, delivered),
                 "last_type": mon.tap.last_type.get(name),
-                "registration": _reg_summary(router.registration(name)),
+                "registration": _reg_summary(server.registration(name)),
             }
         )
     return out
@@ -170,13 +170,13 @@ def _number(text: object) -> float | None:
 
 def overview(mon: Monitor, now: float, now_ns: int) -> dict[str, object]:
     """The overview page: server, whiteboards, modules and streams."""
-    router, server = mon.server.router, mon.server
+    server = mon.server
     counters = server.counters()
-    started = router.started_ns
+    started = server.started_ns
     return {
         "server": {
-            "name": server.config.name,
-            "implementation": router.server_name,
+            "name": server.system_name,
+            "implementation": server.server_name,
             "host": server.host,
             "port": server.port,
             "http_port": mon.http_port,
@@ -203,7 +203,7 @@ def whiteboard_messages(
     mon: Monitor, name: str, flt: MessageFilter, *, limit: int, before: int | None
 ) -> dict[str, object] | None:
     """The newest stored messages of a whiteboard that pass `flt` (wbid < `before` if given)."""
-    board = mon.server.router.whiteboard(name)
+    board = mon.server.whiteboard(name)
     if board is None:
         return None
     accept = flt.compile()
@@ -231,7 +231,7 @@ def whiteboard_messages(
 
 def find_message(mon: Monitor, whiteboard: str, key: str) -> dict[str, object] | None:
     """Return the detail of a stored message by wbid (digits) or id, or None."""
-    board = mon.server.router.whiteboard(whiteboard)
+    board = mon.server.whiteboard(whiteboard)
     if board is None:
         return None
     wbid = int(key) if key.isdigit() else None
@@ -246,7 +246,7 @@ def find_message(mon: Monitor, whiteboard: str, key: str) -> dict[str, object] |
 
 def stored_message(mon: Monitor, whiteboard: str, key: str) -> Message | None:
     """Return a message the whiteboard still stores, by wbid (digits) or id, or None."""
-    board = mon.server.router.whiteboard(whiteboard)
+    board = mon.server.whiteboard(whiteboard)
     if board is None:
         return None
     wbid = int(key) if key.isdigit() else None
@@ -307,7 +307,7 @@ def _recent_wakeups(mon: Monitor, name: str) -> list[dict[str, object]]:
 def module_detail(mon: Monitor, name: str, now: float) -> dict[str, object] | None:
     """A module's session, registration, counters, recent wakeups and latency histogram."""
     row = next((m for m in modules(mon, now) if m["name"] == name), None)
-    reg = mon.server.router.registration(name)
+    reg = mon.server.registration(name)
     if row is None and reg is None:
         return None
     hist = mon.tap.latency.get(name)

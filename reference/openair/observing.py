@@ -10,14 +10,15 @@ it once when it starts, with itself as an `ObservedServer`, and closes what it r
   Both are read-only views; the server's own records (router `Delivery`, queue `QueueItem`)
   satisfy them. Observers run inside the post path: they must do O(1) work and never raise.
 - `ObservedServer` is what else an application may read: where the server listens, its
-  extensions, whiteboards and counters, and look-ups by name in its tables (`ServerTables`:
-  a whiteboard's stored posts, a bound module's session, a registration); and `inject`, which
-  routes a post that came from no connection (the monitor's post form).
+  extensions, whiteboards and counters, and look-ups by name (a whiteboard's stored posts as a
+  `StoredBoard`, a bound module's session as a `BoundModule`, a registration); and `inject`,
+  which routes a post that came from no connection (the monitor's post form).
 - `message_bytes` is the size estimate the server and its observers share for a message they
   hold (issue #19).
 
-The reference `Server` (server/aio/app.py) satisfies `ObservedServer` as it is: mypy checks that
-in tests/layering/test_layering_apps.py, which also keeps the applications off the server.
+The reference server hands its applications an `ObservedView` of itself (server/aio/observed.py),
+nothing more: mypy checks that it is an `ObservedServer` in tests/layering/test_layering_apps.py,
+which also keeps the applications off the server's modules.
 """
 
 from __future__ import annotations
@@ -35,10 +36,8 @@ __all__ = [
     "BoundModule",
     "Delivered",
     "Injected",
-    "NamedSystem",
     "ObservedServer",
     "ServerObserver",
-    "ServerTables",
     "StoredBoard",
     "message_bytes",
 ]
@@ -127,23 +126,6 @@ class BoundModule(Protocol):
     def extensions(self) -> frozenset[str]: ...
 
 
-class ServerTables(Protocol):
-    """Look-ups in the server's tables by name (`ObservedServer.router`): None when unknown."""
-
-    @property
-    def server_name(self) -> str:
-        """The implementation and version (OA-CAP-1)."""
-
-    @property
-    def started_ns(self) -> int | None: ...
-
-    def whiteboard(self, name: str) -> StoredBoard | None: ...
-
-    def module(self, name: str) -> BoundModule | None: ...
-
-    def registration(self, name: str) -> Registration | None: ...
-
-
 class Injected(Protocol):
     """What `ObservedServer.inject` returns: the replies to the injected post."""
 
@@ -167,13 +149,6 @@ class AttachOptions(Protocol):
     def monitor_hosts(self) -> tuple[str, ...]: ...
 
 
-class NamedSystem(Protocol):
-    """The server's configuration as observers see it: its system name (psySpec `name`)."""
-
-    @property
-    def name(self) -> str: ...
-
-
 @runtime_checkable
 class ObservedServer(Protocol):
     """What an application attached to a server (entry point group `openair.server.attachments`)
@@ -195,10 +170,24 @@ class ObservedServer(Protocol):
     def options(self) -> AttachOptions: ...
 
     @property
-    def config(self) -> NamedSystem: ...
+    def system_name(self) -> str:
+        """The psySpec's `name` (spec 12)."""
 
     @property
-    def router(self) -> ServerTables: ...
+    def server_name(self) -> str:
+        """The implementation and version (OA-CAP-1)."""
+
+    @property
+    def started_ns(self) -> int | None: ...
+
+    def whiteboard(self, name: str) -> StoredBoard | None:
+        """The whiteboard `name` (exact case), None when the server has none of that name."""
+
+    def module(self, name: str) -> BoundModule | None:
+        """The session of module `name` when it is bound, else None."""
+
+    def registration(self, name: str) -> Registration | None:
+        """The registration in force for module `name`, if any."""
 
     def counters(self) -> dict[str, object]:
         """Nested counters: `whiteboards`, `modules`, `queues`, `streams` tables and totals."""

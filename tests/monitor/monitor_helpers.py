@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from openair.server.aio.app import Server, ServerOptions, start_server
+from openair.server.aio.observed import ObservedView
 from openair_monitor import Monitor, MonitorOptions, attach
 
 BOUND = 15.0  # seconds: the most any single wait may take
@@ -44,7 +45,8 @@ async def serving(
     server = await start_server(opts)
     try:
         if monitor is not None:
-            server.monitor = await attach(server, monitor)  # post, hosts, port: from opts
+            # post, hosts, port: from opts
+            server.monitor = await attach(ObservedView(server), monitor)
         assert isinstance(server.monitor, Monitor)
         yield server, server.monitor
     finally:

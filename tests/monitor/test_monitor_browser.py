@@ -19,6 +19,7 @@ from monitor_helpers import ARTIFACTS
 from openair.client import Module
 from openair.protocol.message import Message
 from openair.server.aio.app import Server, ServerOptions, start_server
+from openair.server.aio.observed import ObservedView
 from openair.server.core.queues import QueueItem
 from openair_monitor import Monitor, MonitorOptions, attach
 
@@ -43,7 +44,7 @@ class LiveServer:
         options = ServerOptions(port=0, monitor=False, monitor_post=True, grace_s=0.5)
         server = await start_server(options)
         fast = MonitorOptions(tick_s=0.05, overview_s=0.2, graph_s=0.2)
-        server.monitor = await attach(server, fast)
+        server.monitor = await attach(ObservedView(server), fast)
         return server
 
     @property

@@ -34,6 +34,7 @@ from openair.protocol.message import Message
 from openair.server.aio.budgets import quiet_accept_errors
 from openair.server.aio.dispatcher import Dispatcher
 from openair.server.aio.internal import InternalModules, start_internal
+from openair.server.aio.observed import ObservedView
 from openair.server.aio.options import (
     DEFAULT_EXTENSIONS,
     DEFAULT_PORT,
@@ -77,7 +78,7 @@ ATTACHMENTS = "openair.server.attachments"
 
 
 #: An installed application's entry point: called once with the started server.
-Attach = Callable[["Server"], Coroutine[object, object, "MonitorHook"]]
+Attach = Callable[[ObservedView], Coroutine[object, object, "MonitorHook"]]
 
 
 def _attachment(name: str) -> Attach | None:
@@ -439,7 +440,7 @@ class Server:
             self._ticker = asyncio.get_running_loop().call_later(_TICK_S, self._tick)
         self._sweep()
         if self._attach_monitor is not None and "monitor" in self.extensions:  # OA-AUTH-11
-            self.monitor = await self._attach_monitor(self)
+            self.monitor = await self._attach_monitor(ObservedView(self))
         await self._listener.start_serving()
         log.info(
             "event=listening host=%s port=%d whiteboards=%s extensions=%s",

@@ -314,15 +314,10 @@ class ClusterStore:
         return received
 
     async def _fill(self, board: _Board, seq: int) -> bool:
-        """Fetch the copies before `seq` that the consumer did not deliver (OA-CLU-1).
-
-        An ordered consumer checks its own delivery sequence, not the stream's: one recreated
-        after a fault can deliver a later copy without an earlier one. `through` counts only
-        copies received without a gap, so the gap is read from the stream itself (its leader);
-        copies the stream's limit discarded (OA-WB-6) are not missing. False when the stream
-        cannot be read: the copy at `seq` is not taken and the consumer is read again from the
-        gap (the watchdog).
-        """
+        """Fetch from the stream the copies before `seq` the consumer skipped (OA-CLU-1): an
+        ordered consumer checks its delivery sequence, not the stream's. Copies the limit
+        discarded (OA-WB-6) are not missing. False when the stream cannot be read: `seq` is not
+        taken and the watchdog reads again from the gap."""
         from nats.js.errors import NotFoundError
 
         name = stream_name(board.name)
@@ -562,6 +557,13 @@ class ClusterStore:
         info = self._call(self._js.stream_info(stream_name(whiteboard)), self.timeout_s + 1.0)
         last = int(info.state.last_seq or 0)
         if last and not self._wait_through(whiteboard, last, self.timeout_s):
+            through = self._boards[whiteboard].through
+            log.warning(
+                "event=cluster_sync_short whiteboard=%s through=%d last=%d",
+                whiteboard,
+                through,
+                last,
+            )
             raise TimeoutError(f"{whiteboard}: the stream was not read up to {last} in time")
 
     # -- helpers ---------------------------------------------------------------------------------

@@ -19,14 +19,12 @@ with `xmlsafe` and grafted into the tree, never concatenated.
 
 from __future__ import annotations
 
-import math
-import re
-from collections.abc import Callable, Mapping
-from decimal import Decimal
+from collections.abc import Callable
 from typing import Any
 
 from lxml import etree
 
+from openair.protocol import grammar
 from openair.protocol._errors_base import OpenAIRError
 from openair.protocol.errors import ApiMisuseError, MessageInvalidError, XmlMalformedError
 from openair.protocol.fastcodec import fast_decode, fast_encode
@@ -46,31 +44,14 @@ __all__ = [
     "to_frame",
 ]
 
-_WS = " \t\r\n"  # XML white space (XML 1.0 production S)
-_INT = re.compile(r"[+-]?[0-9]+")
-_UINT = re.compile(r"\+?[0-9]+")
-_DIGITS = re.compile(r"[0-9]+")
-_DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)")
+# The grammar shared with `fastcodec` (slots, number patterns and readers, the decimal writer).
+_WS, _DIGITS = grammar.WS, grammar.DIGITS
+_clip, _decimal, _time_from_attributes = grammar.clip, grammar.read_decimal, grammar.read_time
 _YES_NO = {"yes": True, "no": False}
 # Characters XML 1.0 does not allow (OA-MSG-14); used only to name the slot after lxml refused.
-_NOT_XML_CHAR = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
-_MAX_SEC = 2**63 - 1
-_MIN_SEC = -(2**63)
-
-# Text slots: lower-cased element name -> Message field.
-_TEXT_SLOTS: dict[str, str] = {
-    "type": "type",
-    "id": "id",
-    "from": "sender",
-    "to": "to",
-    "cc": "cc",
-    "stored": "stored",
-    "isresponse": "isresponse",
-    "comment": "comment",
-    "netprotocol": "netprotocol",
-}
-# Slots the spec defines that have no field of their own (OA-MSG-16 still forbids duplicates).
-_DERIVED_SLOTS = frozenset({"binarysizes", "totalbinarysize"})
+_NOT_XML_CHAR = grammar.NOT_XML_CHAR
+_TEXT_SLOTS = grammar.TEXT_SLOTS  # lower-cased element name -> Message field
+_DERIVED_SLOTS = grammar.DERIVED_SLOTS
 _LISTED_EXTRAS = frozenset({"extensions"})
 
 
@@ -190,11 +171,6 @@ def _no_text(text: str | None, where: str) -> None:
         raise MessageInvalidError(f"text {_clip(text)!r} between the elements of <{where}>")
 
 
-def _clip(text: str, limit: int = 40) -> str:
-    text = text.strip(_WS)
-    return text if len(text) <= limit else text[:limit] + "..."
-
-
 def _attributes(el: etree._Element) -> dict[str, str]:
     """Return the attributes of `el` keyed by lower-cased name; a name given twice is invalid."""
     attrib = el.attrib
@@ -221,14 +197,6 @@ def _read_root_attributes(root: etree._Element, fields: dict[str, Any], clamp: b
         if flag is None:  # OA-MSG-15: yes or no, any case
             raise MessageInvalidError(f"noreply must be yes or no, got {noreply!r}")
         fields["noreply"] = flag
-
-
-def _decimal(text: str, what: str) -> float:
-    """Parse an xs:decimal (no exponent, no inf/nan) into a float."""
-    stripped = text.strip(_WS)
-    if not _DECIMAL.fullmatch(stripped):
-        raise MessageInvalidError(f"{what} is not a decimal number: {text!r}")
-    return float(stripped) + 0.0  # + 0.0 turns -0.0 into 0.0
 
 
 def _priority(text: str, clamp: bool) -> float:
@@ -389,35 +357,6 @@ def time_from_element(el: etree._Element) -> AirTime:
     return _time_from_attributes(_attributes(el), name)
 
 
-def _time_from_attributes(attrs: Mapping[str, str], where: str) -> AirTime:
-    """Build a time from lower-cased attributes; any bad value is MESSAGE_INVALID (OA-TIME-6)."""
-    sec_text = attrs.get("sec")
-    if sec_text is None:
-        raise MessageInvalidError(f"<{where}> has no sec attribute")
-    sec = _integer(sec_text, _INT, f"sec of <{where}>")
-    if not _MIN_SEC <= sec <= _MAX_SEC:  # OA-TIME-1: signed 64-bit
-        raise MessageInvalidError(f"sec of <{where}> is outside the 64-bit range: {sec_text!r}")
-    msec_text = attrs.get("msec", attrs.get("ms"))  # OA-TIME-1: msec wins over ms
-    msec = 0 if msec_text is None else _below_1000(msec_text, f"msec of <{where}>")
-    usec_text = attrs.get("usec")  # OA-TIME-5
-    usec = None if usec_text is None else _below_1000(usec_text, f"usec of <{where}>")
-    return AirTime(sec=sec, msec=msec, usec=usec)
-
-
-def _integer(text: str, pattern: re.Pattern[str], what: str) -> int:
-    stripped = text.strip(_WS)
-    if not pattern.fullmatch(stripped):  # OA-TIME-6
-        raise MessageInvalidError(f"{what} is not a decimal integer: {_clip(text)!r}")
-    return int(stripped)
-
-
-def _below_1000(text: str, what: str) -> int:
-    value = _integer(text, _UINT, what)
-    if value > 999:  # OA-TIME-6
-        raise MessageInvalidError(f"{what} must be 0-999, got {text!r}")
-    return value
-
-
 def time_to_element(name: str, t: AirTime) -> etree._Element:
     """Write a time as `<name sec msec/>`, plus `usec` when the time has one (OA-TIME-5)."""
     el = etree.Element(name)
@@ -522,12 +461,10 @@ def _set_text(el: etree._Element, text: str) -> None:
 
 def _format_decimal(value: float, what: str) -> str:
     """Write a decimal as the shortest digits that read back as `value`: 2.0, 0.5, 6.999."""
-    if not math.isfinite(value):
+    text = grammar.decimal_text(value)
+    if text is None:
         raise ApiMisuseError(f"{what} must be a finite number, got {value!r}")
-    text = repr(float(value) + 0.0)
-    if "e" in text or "E" in text:
-        text = format(Decimal(text), "f")
-    return text if "." in text else text + ".0"
+    return text
 
 
 def _reference_element(ref: Reference) -> etree._Element:

@@ -15,16 +15,25 @@ byte-identical to lxml's serialization (tests/perf_equiv checks both directions)
 
 from __future__ import annotations
 
-import math
-import operator
 import re
-from collections.abc import Callable, Sequence
-from dataclasses import fields as dataclass_fields
 from typing import Any
 
-from openair.protocol.message import MAX_PRIORITY, MIN_PRIORITY, Message, Reference, Slot
+from openair.protocol import grammar
+from openair.protocol.message import FIELDS, MAX_PRIORITY, MIN_PRIORITY, Message, Reference, Slot
 from openair.protocol.times import AirTime
 from openair.protocol.xmlsafe import XmlLimits
+
+# The grammar both codecs share (slots, number patterns, the decimal writer).
+_WS, _INT, _UINT, _DIGITS, _DECIMAL = (
+    grammar.WS,
+    grammar.INT,
+    grammar.UINT,
+    grammar.DIGITS,
+    grammar.DECIMAL,
+)
+_MAX_SEC, _MIN_SEC, _NOT_XML_CHAR = grammar.MAX_SEC, grammar.MIN_SEC, grammar.NOT_XML_CHAR
+_TEXT_SLOTS, _DERIVED = grammar.TEXT_SLOTS, grammar.DERIVED_SLOTS
+_format_decimal = grammar.short_decimal_text  # exponent forms: the lxml path
 
 __all__ = [
     "derived",
@@ -38,7 +47,6 @@ __all__ = [
     "time_xml",
 ]
 
-_WS = " \t\n\r"
 _NAME = r"[A-Za-z_][A-Za-z0-9._-]*"
 _ATTRS = rf"(?:[ \t\n]+{_NAME}[ \t\n]*=[ \t\n]*(?:\"[^\"<]*\"|'[^'<]*'))*"
 _DECL = re.compile(r"<\?xml version=\"1\.0\"(?: encoding=\"(?:UTF|utf)-8\")?\?>[ \t\n]*")
@@ -50,25 +58,6 @@ _BAD_CHAR = re.compile("[^\t\n\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
 _ENTITY = re.compile(r"&(?:(amp|lt|gt|quot|apos)|#([0-9]{1,7})|#x([0-9a-fA-F]{1,6}));")
 _BARE_AMP = re.compile(r"&(?!(?:amp|lt|gt|quot|apos|#[0-9]{1,7}|#x[0-9a-fA-F]{1,6});)")
 _PREDEFINED = {"amp": "&", "lt": "<", "gt": ">", "quot": '"', "apos": "'"}
-_DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)")
-_INT = re.compile(r"[+-]?[0-9]+")
-_UINT = re.compile(r"\+?[0-9]+")
-_DIGITS = re.compile(r"[0-9]+")
-_MAX_SEC = 2**63 - 1
-_MIN_SEC = -(2**63)
-
-_TEXT_SLOTS = {
-    "type": "type",
-    "id": "id",
-    "from": "sender",
-    "to": "to",
-    "cc": "cc",
-    "stored": "stored",
-    "isresponse": "isresponse",
-    "comment": "comment",
-    "netprotocol": "netprotocol",
-}
-_DERIVED = frozenset({"binarysizes", "totalbinarysize"})
 _NOT_EXTRAS = frozenset(_TEXT_SLOTS) | _DERIVED | {"postedtime", "receivedtime", "content", "wbid"}
 _DECLINED = frozenset({"inreplyto", "history"})
 _NO_ATTRS: dict[str, str] = {}
@@ -103,10 +92,8 @@ _CANONICAL = re.compile(
     + '<content language="([^"<&\t\n\x00-\x08\x0b-\x1f\ufffe\uffff]*)"'
     + f"(?:/>|>({_TEXT}*)</content>)</message>"
 )
-_FIELDS = tuple(f.name for f in dataclass_fields(Message))
-_DEFAULT = Message(type="-", id="")
-_DEFAULTS = tuple(getattr(_DEFAULT, name) for name in _FIELDS)
-_READ = operator.attrgetter(*_FIELDS)
+_FIELDS = FIELDS
+_DEFAULTS = tuple(getattr(Message.trusted(type="-"), name) for name in _FIELDS)
 _AT = {name: i for i, name in enumerate(_FIELDS)}
 _TYPE, _ID, _SENDER, _TO, _CC = (_AT[n] for n in ("type", "id", "sender", "to", "cc"))
 _STORED, _ISRESPONSE, _POSTED = (_AT[n] for n in ("stored", "isresponse", "posted"))
@@ -114,54 +101,18 @@ _RECEIVED, _PRIORITY, _TIMETOLIVE = (_AT[n] for n in ("received", "priority", "t
 _NOREPLY, _LANGUAGE, _CONTENT = (_AT[n] for n in ("noreply", "language", "content"))
 _CONTENT_IS_XML, _COMMENT, _WBID = (_AT[n] for n in ("content_is_xml", "comment", "wbid"))
 _NETPROTOCOL, _BINARY = _AT["netprotocol"], _AT["binary"]
-
-
-class _Unfrozen:
-    """Message's slot layout without its frozen `__setattr__`: filled, then given its class.
-
-    Setting 22 slots through a frozen dataclass costs several µs per message on the hot path;
-    plain slot stores and one `__class__` assignment (allowed: the layouts are identical) cost
-    a fraction of that.
-    """
-
-    __slots__ = Message.__slots__
-
-
-def _filler() -> Callable[[_Unfrozen, Sequence[Any]], None]:
-    if tuple(_FIELDS) != Message.__slots__:
-        raise RuntimeError("Message fields and slots differ")  # the layout trick needs them equal
-    source = "def fill(m, v):\n    " + ", ".join(f"m.{name}" for name in _FIELDS) + " = v\n"
-    namespace: dict[str, Any] = {}
-    exec(source, namespace)  # one unpacking assignment, as dataclasses generate __init__
-    fill: Callable[[_Unfrozen, Sequence[Any]], None] = namespace["fill"]
-    return fill
-
-
-_fill = _filler()
-
-
-def _new_message(values: Sequence[Any]) -> Message:
-    """Build a Message from values in field order without `__init__` (validated by the caller)."""
-    msg = _Unfrozen()
-    _fill(msg, values)
-    msg.__class__ = Message  # type: ignore[assignment]
-    return msg  # type: ignore[return-value]
+#: The decoder's patterns validated every value: it builds with the trusted constructor.
+_new_message = Message.trusted_row
 
 
 def message_with(**values: Any) -> Message:
-    """Build a Message of trusted values quickly: no `__init__`, so no validation at all."""
-    row = list(_DEFAULTS)
-    for name, value in values.items():
-        row[_AT[name]] = value
-    return _new_message(row)
+    """`Message.trusted` (the trusted constructor), under its earlier name."""
+    return Message.trusted(**values)
 
 
 def derived(msg: Message, **changes: Any) -> Message:
-    """Return `msg` with `changes` (trusted values, no validation), like `dataclasses.replace`."""
-    row = list(_READ(msg))
-    for name, value in changes.items():
-        row[_AT[name]] = value
-    return _new_message(row)
+    """`Message.trusted_replace` (the trusted constructor), under its earlier name."""
+    return msg.trusted_replace(**changes)
 
 
 class _Decline(Exception):
@@ -430,7 +381,6 @@ def _integer(text: str, pattern: re.Pattern[str]) -> int:
 
 # ----------------------------------------------------------------------------------- encoding
 
-_NOT_XML_CHAR = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
 _EXTRA_NAME = re.compile(_NAME)
 _KNOWN_LOWER = frozenset(
     (*_TEXT_SLOTS, *_DERIVED, "inreplyto", "postedtime", "receivedtime", "history", "wbid")
@@ -481,15 +431,6 @@ def text_slot_xml(name: str, text: str) -> str | None:
 def time_xml(name: str, t: AirTime) -> str:
     """Write a time element as the canonical writer does (OA-TIME-1, OA-TIME-5)."""
     return _time_el(name, t)
-
-
-def _format_decimal(value: float) -> str | None:
-    if not math.isfinite(value):
-        return None
-    text = repr(float(value) + 0.0)
-    if "e" in text or "E" in text:
-        return None  # rare: the lxml path formats it
-    return text if "." in text else text + ".0"
 
 
 def _time_el(name: str, t: AirTime) -> str:

@@ -19,9 +19,7 @@ from openair.protocol.codec import message_from_element, message_to_element
 from openair.protocol.content import Phase
 from openair.protocol.errors import ContentInvalidError, MessageInvalidError
 from openair.protocol.fastcodec import (
-    derived,
     fast_encode_str,
-    message_with,
     text_slot_xml,
     time_xml,
 )
@@ -202,7 +200,7 @@ def assemble_wakeup(
         f"{_TRIGGER_OPEN}{trigger_xml}{_RETRIEVED_OPEN}{retrieved_xml}"
         f"{_PHASE_OPEN}{phase_xml}{_CLOSE}"
     )
-    msg = message_with(
+    msg = Message.trusted(
         type=WAKEUP_TYPE,
         id=id,
         sender=whiteboard,
@@ -237,7 +235,7 @@ def _envelope(whiteboard: str, module: str) -> tuple[str, str] | None:
     key = (whiteboard, module)
     if key in _envelopes:
         return _envelopes[key]
-    probe = message_with(
+    probe = Message.trusted(
         type=WAKEUP_TYPE,
         id="",
         sender=whiteboard,
@@ -375,4 +373,4 @@ def attach_wakeup(
     """
     chunks = chunks_of((stored, *retrieved))
     extras = (*wakeup.extras, Slot(name=OMITTED, value=str(omitted))) if omitted else wakeup.extras
-    return derived(wakeup, binary=chunks, extras=extras)
+    return wakeup.trusted_replace(binary=chunks, extras=extras)

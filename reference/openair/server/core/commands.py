@@ -15,7 +15,6 @@ from datetime import UTC, datetime
 
 from openair.protocol.content import Dictionary, Phase
 from openair.protocol.errors import OpenAIRError
-from openair.protocol.fastcodec import message_with
 from openair.protocol.message import Message
 from openair.protocol.objects import (
     Capabilities,
@@ -107,7 +106,7 @@ def reply(
     req: Message, type_: str, *, sender: str, now_ns: int, content: str = "", xml: bool = False
 ) -> Message:
     """Build the reply `type_` to `req` from `sender` (OA-SESS-1, OA-SESS-32)."""
-    return message_with(  # no field here needs Message's validation (priority, wbid)
+    return Message.trusted(  # no field here needs Message's validation (priority, wbid)
         type=type_,
         id=fresh_id(),
         sender=sender,

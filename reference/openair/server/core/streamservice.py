@@ -24,7 +24,6 @@ from openair.protocol.errors import (
     SampleInvalidError,
     SampleUnknownError,
 )
-from openair.protocol.fastcodec import message_with
 from openair.protocol.matching import ascii_fold, matches
 from openair.protocol.message import Message
 from openair.protocol.objects import (
@@ -294,7 +293,7 @@ class StreamService:
         if name is None or name not in self._states:
             return None
         state = self._states[name]
-        request = message_with(type="ADD_SAMPLE", id="", sender="", to=name)
+        request = Message.trusted(type="ADD_SAMPLE", id="", sender="", to=name)
         try:
             sample = decode_chunk(chunk)  # OA-STREAM-10
             return self._added(state, request, (sample,), f"conn:{conn}", received_ns, now_ns)

@@ -21,7 +21,7 @@ from openair.protocol.errors import (
     OpenAIRError,
     SampleInvalidError,
 )
-from openair.protocol.fastcodec import fast_encode_str, message_with
+from openair.protocol.fastcodec import fast_encode_str
 from openair.protocol.framing import Frame, FrameTag, encode_frame
 from openair.protocol.message import Message, Slot
 from openair.protocol.objects import (
@@ -61,7 +61,7 @@ MAX_PATTERN_BYTES = 256  # OA-XSTREAM-11
 
 def sample_reply(req: Message, sample: StoredSample, *, sender: str, now_ns: int) -> Message:
     """Build a DATASAMPLE reply carrying one sample as its chunk (11.2, OA-STREAM-6)."""
-    return message_with(
+    return Message.trusted(
         type="DATASAMPLE",
         id=cmd.fresh_id(),
         sender=sender,
@@ -80,7 +80,7 @@ def samples_reply(
 ) -> Message:
     """Build a DATASAMPLES reply: a collection of datasamples, oldest first, and their chunks."""
     objects = "<object><datasample/></object>" * len(samples)
-    return message_with(
+    return Message.trusted(
         type="DATASAMPLES",
         id=cmd.fresh_id(),
         sender=sender,
@@ -99,7 +99,7 @@ def push_message(
 ) -> Message:
     """Build a pushed DATASAMPLE (OA-STREAM-8, OA-STREAM-12), with `dropped` when samples were."""
     extras = (Slot(name="dropped", value=str(dropped)),) if dropped else ()
-    return message_with(
+    return Message.trusted(
         type="DATASAMPLE",
         id=cmd.fresh_id(),
         sender=stream,

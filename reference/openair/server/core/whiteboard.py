@@ -18,7 +18,6 @@ from typing import Any
 from openair.protocol.content import ContentMatch, RetrieveSpec
 from openair.protocol.contentmatch import canonical_xml_text, content_glob, text_of
 from openair.protocol.errors import StoreFailedError
-from openair.protocol.fastcodec import derived
 from openair.protocol.matching import matches
 from openair.protocol.message import Message
 from openair.server.core.commands import ms_time
@@ -48,7 +47,7 @@ def derive(msg: Message, **changes: Any) -> Message:
     It skips `__post_init__`: use it only for slots the server sets to values it knows valid
     (stored, receivedTime, wbid, postedTime).
     """
-    return derived(msg, **changes)
+    return msg.trusted_replace(**changes)
 
 
 def text_bytes(msg: Message) -> int:

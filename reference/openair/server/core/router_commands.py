@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from openair.protocol.auth import AUTH_ACCEPT, AUTH_NONCE
+from openair.protocol.connection import answer_type
 from openair.protocol.content import TcpLocation
 from openair.protocol.errors import (
     BindRefusedError,
@@ -220,7 +221,7 @@ class ComponentCommands(RouterState):
         return Outcome(replies=(answer,))
 
     def _session_reply(self, msg: Message, sender: str, now_ns: int) -> Outcome:
-        kind = "PING_SUCCESS" if msg.type == "PING" else "KEEPALIVESUCCESS"
+        kind = answer_type(msg.type)  # OA-SESS-10, OA-KEEP-2: the one table
         return Outcome(replies=(cmd.reply(msg, kind, sender=sender, now_ns=now_ns),))
 
     def _ping(self, conn: ConnId, msg: Message, received_ns: int, now_ns: int) -> Outcome:

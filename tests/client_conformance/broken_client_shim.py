@@ -17,6 +17,7 @@ from typing import Any
 import openair.client.listener as listener
 import openair.client.session as session
 import openair.client.shim as shim
+import openair.protocol.connection as connection
 from openair.client.link import Link
 from openair.client.module import Module
 from openair.client.session import ClientConnection, Invalid, Request
@@ -36,8 +37,8 @@ def no_callback() -> None:
 
 
 def ping_accept() -> None:
-    """Answer PING with RECEIVE_ACCEPT."""
-    session._ANSWER_FOR.pop("PING")
+    """Answer PING with RECEIVE_ACCEPT (the one answer table, in this shim's process only)."""
+    connection.ANSWER_FOR.pop("PING")
 
 
 def no_ack() -> None:

@@ -167,7 +167,7 @@ class Pending(Generic[T]):
     token: T
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Paired(Generic[T]):
     """What `pair` found for a reply.
 
@@ -240,7 +240,8 @@ class Connection(Generic[T]):
 
         Returns what waits (its `token` may be replaced), None when no reply is expected.
         """
-        self.transition(Action.SEND_REQUEST)
+        if self._state is not State.REQUESTER:  # the table's self-loop is the hot path
+            self.transition(Action.SEND_REQUEST)
         if not expects_reply:
             return None
         pending = Pending(request_id, type, token)
@@ -270,22 +271,33 @@ class Connection(Generic[T]):
 
     def pair(self, msg: Message | None) -> Paired[T]:
         """Pair a reply (None: one that could not be read) with its request (OA-SESS-33)."""
-        self.transition(Action.RECEIVE)
-        if msg is not None and self.is_out_of_turn(msg):
-            return Paired(None, out_of_turn=True)
-        passed: tuple[Pending[T], ...] = ()
+        if self._state is not State.REQUESTER:  # the table's self-loop is the hot path
+            self.transition(Action.RECEIVE)
         rules = self.rules
-        if rules.pass_over_keepalive and (msg is None or msg.type != "KEEPALIVESUCCESS"):
+        if msg is not None and rules.answer_out_of_turn and self.is_out_of_turn(msg):
+            return Paired(None, (), True)
+        in_flight = self._in_flight
+        passed: tuple[Pending[T], ...] = ()
+        if (
+            rules.pass_over_keepalive
+            and in_flight
+            and in_flight[0].type == "KEEPALIVE"
+            and (msg is None or msg.type != "KEEPALIVESUCCESS")
+        ):
             passed = self._pass_over_keepalives()  # OA-KEEP-3
-        if not self._in_flight:
+        if not in_flight:
             kind = "?" if msg is None else msg.type
             if rules.orphan_error:
                 raise MessageInvalidError(f"reply {kind!r} with no request in flight")
-            return Paired(None, passed, note="reply with no request in flight")
+            return Paired(None, passed, False, "reply with no request in flight")
+        named = "" if msg is None else msg.isresponse
+        # OA-SESS-33: an empty isresponse is accepted (Psyclone's KEEPALIVESUCCESS).
+        if not named or rules.isresponse == "ignore" or named == in_flight[0].id:
+            return Paired(in_flight.popleft(), passed)
         index, note = self._match(msg)
-        head = self._in_flight[index]
-        del self._in_flight[index]
-        return Paired(head, passed, note=note)
+        head = in_flight[index]
+        del in_flight[index]
+        return Paired(head, passed, False, note)
 
     def _pass_over_keepalives(self) -> tuple[Pending[T], ...]:
         passed: list[Pending[T]] = []
@@ -329,7 +341,8 @@ class Connection(Generic[T]):
 
     def receive_request(self, request: Any, *, needs_answer: bool = True) -> None:
         """Record a request received; one that needs an answer waits in order (OA-SESS-2)."""
-        self.transition(Action.RECEIVE)
+        if self._state is not State.RESPONDER:  # the table's self-loop is the hot path
+            self.transition(Action.RECEIVE)
         if needs_answer:
             self._to_answer.append(request)
 

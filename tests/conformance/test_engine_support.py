@@ -116,6 +116,7 @@ class FakeServer:
         self._modules: dict[str, _Module] = {}
         self._boards: dict[str, list[etree._Element]] = {wb: [] for wb in WHITEBOARDS}
         self._wbid = itertools.count(1)
+        self._ports = itertools.count(10999)  # a new listening port per BIND (OA-SESS-3)
         self._conns: list[_Conn] = []
         self._tasks: list[asyncio.Task[None]] = []
 
@@ -203,7 +204,7 @@ class FakeServer:
                 sender="CNS",
                 to=sender,
                 isresponse=rid,
-                content=str(port if port else 10999),
+                content=str(port if port else next(self._ports)),
             )
         if type_ == "RESOLVE_REQUEST":
             if text.strip() in (*WHITEBOARDS, "CNS"):

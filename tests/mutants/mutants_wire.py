@@ -22,7 +22,7 @@ from openair.protocol.errors import RemoteProtocolError
 from openair.protocol.framing import Frame, FrameTag
 from openair.protocol.message import Message
 from openair.protocol.xmlsafe import XmlLimits
-from openair.server.aio import delivery, protocol
+from openair.server.aio import delivery, protocol, timers
 from openair.server.core import commands, retrieve, sessions
 from openair.server.core.config import ServerLimits
 from openair.server.core.queues import DeliveryQueue
@@ -275,7 +275,7 @@ def _oversized(mp: pytest.MonkeyPatch) -> None:
     limits={"frame_deadline_ms": 400},
 )
 def _deadline(mp: pytest.MonkeyPatch) -> None:
-    mp.setattr(protocol.ServerConnection, "_check_deadline", lambda self: None)
+    mp.setattr(timers.ConnectionTimers, "check_deadline", lambda self: None)
 
 
 @mutant("wbid-unpadded", "wbid is written without zero padding", "OA-MSG-13")

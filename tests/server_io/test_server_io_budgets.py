@@ -22,10 +22,12 @@ from openair.protocol.content import RetrieveSpec
 from openair.protocol.framing import encode_frame
 from openair.protocol.message import Message
 from openair.protocol.objects import parse_dictionary
+from openair.server.aio import offloop as offloop_module
 from openair.server.aio import protocol as protocol_module
 from openair.server.aio.app import ServerOptions
+from openair.server.aio.connhost import FlowLimits
 from openair.server.aio.dispatcher import DeliveryOptions
-from openair.server.aio.protocol import FlowLimits, Role, ServerConnection
+from openair.server.aio.protocol import Role, ServerConnection
 from openair.server.core.config import ServerLimits
 from openair.server.core.queues import DeliveryQueue
 from openair.server.core.retrieve import registration_results
@@ -222,7 +224,7 @@ def test_a_frame_that_trickles_in_is_cut_at_its_whole_deadline(
         for i in range(10):  # a byte every 20 s: every gap is within the 30 s gap deadline
             conn.data_received(frame[i : i + 1])
             clock[0] += 20.0
-            conn._check_deadline()
+            conn.timers.check_deadline()
             if transport.aborted:
                 break
         assert transport.aborted  # OA-LIM-13: cut after 60 s of one frame
@@ -247,7 +249,7 @@ def test_the_whole_frame_deadline_restarts_with_each_frame(
             conn.data_received(ping[:10])
             clock[0] += 20.0
             conn.data_received(ping[10:])
-            conn._check_deadline()
+            conn.timers.check_deadline()
         assert not transport.aborted
 
     run(body)
@@ -302,7 +304,7 @@ def test_a_large_request_is_decoded_off_the_loop_and_answered_in_order(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     threads: list[str] = []
-    original, original_lxml = protocol_module.from_frame, protocol_module.decode_with_lxml
+    original, original_lxml = protocol_module.from_frame, offloop_module.decode_with_lxml
 
     def recording(frame: Any, limits: Any) -> Message:
         threads.append(threading.current_thread().name)
@@ -313,7 +315,7 @@ def test_a_large_request_is_decoded_off_the_loop_and_answered_in_order(
         return original_lxml(xml, chunks, limits)
 
     monkeypatch.setattr(protocol_module, "from_frame", recording)
-    monkeypatch.setattr(protocol_module, "decode_with_lxml", recording_lxml)
+    monkeypatch.setattr(offloop_module, "decode_with_lxml", recording_lxml)
 
     async def body() -> None:
         server = await serving()

@@ -11,8 +11,8 @@ from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
 from openair.protocol.wakeup import parse_wakeup
 from openair.server.aio.app import ServerOptions
+from openair.server.aio.connhost import FlowLimits
 from openair.server.aio.dispatcher import DeliveryOptions
-from openair.server.aio.protocol import FlowLimits
 from openair.server.aio.stores import SqliteStore
 from openair.server.core.config import ServerLimits
 

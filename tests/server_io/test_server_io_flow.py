@@ -10,7 +10,8 @@ from server_io_helpers import run
 from openair.protocol.codec import from_frame, to_frame
 from openair.protocol.framing import FrameReader, FrameTag, encode_frame
 from openair.protocol.message import Message
-from openair.server.aio.protocol import FlowLimits, Role, ServerConnection
+from openair.server.aio.connhost import FlowLimits
+from openair.server.aio.protocol import Role, ServerConnection
 from openair.server.core.config import ServerLimits
 from openair.server.core.router import Outcome
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from openair.server.aio.app import DEFAULT_EXTENSIONS, Server, ServerOptions, start_server
-from openair.server.aio.protocol import FlowLimits
+from openair.server.aio.connhost import FlowLimits
 from openair_conformance.clientmode.scenario import PeerSpec
 from openair_conformance.clientmode.tap import Behaviour, Capture, Tap
 

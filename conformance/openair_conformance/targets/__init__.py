@@ -9,8 +9,8 @@ at a time or several at once, and says whether it is still alive after a case th
 pass (`Target.alive`; `restart` brings it back for `--on-target-death restart`).
 
 - `targets.server.ServerTarget`: a server over TCP (`openair conform HOST:PORT`);
-- `targets.shim.ShimTarget`: a client library through its shim (`openair conform-client`);
-- `targets.worldmodel.WorldModelTarget`: a world-model module through a whiteboard
+- `clientmode.engine.ShimTarget`: a client library through its shim (`openair conform-client`);
+- `worldmodel.runner.WorldModelTarget`: a world-model module through a whiteboard
   (`openair conform-worldmodel`).
 """
 

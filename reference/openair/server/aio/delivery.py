@@ -29,7 +29,8 @@ from typing import TYPE_CHECKING
 from openair.protocol.connection import answer_type
 from openair.protocol.errors import ConnectionClosedError, OpenAIRError
 from openair.protocol.message import Message
-from openair.server.aio.protocol import ServerConnection, Wire
+from openair.server.aio.pairing import Wire
+from openair.server.aio.protocol import ServerConnection
 from openair.server.core.queues import DeliveryQueue, QueueItem
 from openair.server.core.router import Delivery, ModuleInfo
 from openair.server.core.samplebuffer import SampleBuffer

@@ -13,8 +13,8 @@ import ssl
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
+from openair.server.aio.connhost import FlowLimits
 from openair.server.aio.dispatcher import DeliveryOptions
-from openair.server.aio.protocol import FlowLimits
 from openair.server.core.auth import AuthGate
 from openair.server.core.config import (
     ConfigError,

@@ -23,16 +23,12 @@ without bound.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 import time
 from collections import deque
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Protocol
 
-from openair.protocol.codec import decode_with_lxml, from_frame, to_frame
-from openair.protocol.connection import SERVER_RULES, Connection, Pending, Role, answer_type
+from openair.protocol.codec import from_frame, to_frame
+from openair.protocol.connection import SERVER_RULES, Connection, Role, answer_type
 from openair.protocol.errors import (
     ApiMisuseError,
     ConnectionClosedError,
@@ -44,14 +40,23 @@ from openair.protocol.errors import (
 from openair.protocol.framing import Frame, FrameReader, FrameTag, encode_frame, encode_frame_parts
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
-from openair.protocol.xmlsafe import XmlLimits, local_name, parse_xml
-from openair.server.aio.budgets import off_loop_executor
+from openair.protocol.xmlsafe import XmlLimits
+from openair.server.aio.connhost import ConnectionHost
 from openair.server.aio.datapath import DataPath, datapath_of
+from openair.server.aio.offloop import OFF_LOOP_XML, decode_off_loop, reply_off_loop
+from openair.server.aio.pairing import (
+    ReplyCallback,
+    Waiter,
+    Wire,
+    fail_waiter,
+    resolve,
+    salvage,
+)
+from openair.server.aio.timers import ConnectionTimers
 from openair.server.core.budgets import Budget
-from openair.server.core.config import ServerLimits
 from openair.server.core.router import Outcome
 
-__all__ = ["ConnectionHost", "FlowLimits", "Role", "ServerConnection", "Wire"]
+__all__ = ["ReplyCallback", "Role", "ServerConnection", "Wire"]
 
 log = logging.getLogger("openair.server")
 
@@ -59,81 +64,7 @@ log = logging.getLogger("openair.server")
 #: OA-EXT-3 requires GET/HEAD/POST and allows the others).
 #: Chunks of at least this many bytes are written as parts of their own, never joined (11.2).
 _SEPARATE_CHUNKS = 64 * 1024
-#: Requests with at least this much XML are decoded on a worker thread, and the connection waits
-#: for them: one client's 16 MiB post must not hold every other client for its parse (issue #19).
-#: They take the lxml path, which lets go of the interpreter lock while it parses; the regular
-#: expressions of the fast path hold it (12 ms per MiB), which would stall the loop all the same.
-OFF_LOOP_XML = 256 * 1024
 _HTTP_METHODS = (b"GET ", b"HEAD ", b"POST ", b"PUT ", b"OPTIONS ", b"DELETE ")
-
-
-@dataclass(frozen=True, slots=True, kw_only=True)
-class FlowLimits:
-    """Write-buffer marks of one connection (bytes), and the idle time before KEEPALIVE (s)."""
-
-    high_water: int = 1 << 20
-    low_water: int = 1 << 18
-    hard_cap: int = 96 << 20
-    keepalive_s: float = 60.0  # OA-KEEP-1
-    linger_s: float = 2.0
-
-
-class ConnectionHost(Protocol):
-    """What a connection needs from the server that owns it."""
-
-    limits: ServerLimits
-    flow: FlowLimits
-
-    def connection_opened(self, conn: ServerConnection) -> int:
-        """Register a new inbound connection and return its id."""
-
-    def handle(
-        self, conn: ServerConnection, msg: Message, *, tag: FrameTag, received_ns: int
-    ) -> Outcome:
-        """Hand one request to the router and act on everything but the replies."""
-
-    def handle_binary(self, conn: ServerConnection, chunk: bytes, *, received_ns: int) -> Outcome:
-        """Hand a BinaryM frame's chunk to the router (OA-STREAM-11); act as `handle` does."""
-
-    def http_takeover(self, conn: ServerConnection, data: bytes) -> bool:
-        """Give a connection that starts with an HTTP method to the monitor; False: keep it."""
-
-    def callback_opened(self, conn: ServerConnection, module: str) -> None:
-        """Note that `conn` became the callback connection of `module` (OA-SESS-7)."""
-
-    def connection_lost(self, conn: ServerConnection) -> None:
-        """Forget a closed connection."""
-
-
-#: A message's frame written already: its bytes, or parts to write in order (a header and the
-#: XML, then chunks that are never copied into one buffer; spec 11.2).
-Wire = bytes | tuple[bytes, ...]
-
-#: Called with the reply, or with the error that ends the wait (a decode error, the connection
-#: closing, CancelledError when an unanswered KEEPALIVE is passed over).
-ReplyCallback = Callable[[Message | None, BaseException | None], None]
-
-
-#: What waits for a delivery's reply: its future, or the dispatcher's cheaper callback (None: it
-#: keeps its place in the pairing but says nothing).
-Waiter = asyncio.Future[Message] | ReplyCallback | None
-
-
-def _fail(waiter: Waiter, error: BaseException) -> None:
-    """End the wait of `waiter` with `error` (CancelledError: a KEEPALIVE passed over)."""
-    if isinstance(waiter, asyncio.Future):
-        if not waiter.done():
-            if isinstance(error, asyncio.CancelledError):
-                waiter.cancel()
-            else:
-                waiter.set_exception(error)
-    elif waiter is not None:
-        waiter(None, error)
-
-
-def is_callback(pending: Pending[Waiter]) -> bool:
-    """Whether a delivery awaiting its reply was sent with a callback (the dispatcher's path)."""
-    return pending.token is not None and not isinstance(pending.token, asyncio.Future)
 
 
 class ServerConnection(asyncio.Protocol):
@@ -159,10 +90,9 @@ class ServerConnection(asyncio.Protocol):
         self._unflushed: deque[int] = deque()  # end offsets of replies not yet flushed
         self._batch: list[bytes] = []  # frames to write at the end of this loop turn
         self._batch_bytes = 0
-        self._last_byte = time.monotonic()
-        self.last_traffic = self._last_byte
-        self._deadline: asyncio.TimerHandle | None = None
-        self._keepalive: asyncio.TimerHandle | None = None
+        self.last_byte = time.monotonic()  # when the peer's last bytes arrived
+        self.last_traffic = self.last_byte
+        self.timers = ConnectionTimers(self)  # frame deadlines, idle KEEPALIVE
         self.frames_in = 0
         # A WAIT_FOR_* in progress (OA-STREAM-7): later requests wait behind it (OA-SESS-2).
         self.waiting: int | None = None
@@ -170,8 +100,6 @@ class ServerConnection(asyncio.Protocol):
         # The server's shared budget (OA-LIM-11/12); hosts built for tests may have none.
         self._budget: Budget | None = getattr(host, "budget", None)
         self._partial = 0  # unfinished-frame bytes counted in the budget (OA-LIM-12)
-        self._frame_began = 0.0  # monotonic time of the current frame's first byte
-        self._frame_no = -1  # frames_in when that frame began (-1: no frame begun)
         self._decoding = 0  # XML bytes of a request being decoded off the loop (0: none)
         self._eof = False  # the peer closed its side while a request was being decoded
         # The bytes-level data path offered every read first (issue #20); None: the reference.
@@ -198,13 +126,13 @@ class ServerConnection(asyncio.Protocol):
         if self.role is Role.RESPONDER:
             self.conn_id = self.host.connection_opened(self)
         else:
-            self._arm_keepalive()
+            self.timers.arm_keepalive()
 
     def data_received(self, data: bytes) -> None:
         received_ns = time.time_ns()  # OA-TIME-3: the first act on receipt
         if self._closing:
             return  # OA-FRAME-9: nothing after a failure or a close is processed
-        self._last_byte = self.last_traffic = time.monotonic()
+        self.last_byte = self.last_traffic = time.monotonic()
         if self.frames_in == 0 and self._taken_by_http(data):
             return
         if self._datapath is not None and self.waiting is None and not self._decoding:
@@ -235,7 +163,7 @@ class ServerConnection(asyncio.Protocol):
             self._wait_paused = True  # buffer no more than the frames already read
             self.transport.pause_reading()
         self._hold_partial()
-        self._arm_deadline()
+        self.timers.arm_deadline()
 
     def _hold_partial(self) -> bool:
         """Count the bytes still buffered after processing in the server's budget (OA-LIM-12).
@@ -285,7 +213,7 @@ class ServerConnection(asyncio.Protocol):
 
     def eof_received(self) -> bool | None:
         if not self._closing and self._reader.in_frame:
-            self._log_error(FrameTruncatedError("the peer closed inside a frame"))  # OA-FRAME-8
+            self.log_error(FrameTruncatedError("the peer closed inside a frame"))  # OA-FRAME-8
         if self._decoding and not self._closing:
             self._eof = True  # answer the request being decoded, then close
             return True
@@ -296,12 +224,10 @@ class ServerConnection(asyncio.Protocol):
         if self._budget is not None and self._partial:
             self._budget.hold_partial(-self._partial)  # OA-LIM-12: released with the connection
             self._partial = 0
-        for handle in (self._deadline, self._keepalive):
-            if handle is not None:
-                handle.cancel()
+        self.timers.cancel()
         reason = f"connection lost: {exc}" if exc else "connection closed"
         for pending in self.machine.peer_closed():
-            _fail(pending.token, ConnectionClosedError(reason))
+            fail_waiter(pending.token, ConnectionClosedError(reason))
         if self.role is not Role.OUTBOUND:
             self.host.connection_lost(self)
         if not self.closed.done():
@@ -342,7 +268,7 @@ class ServerConnection(asyncio.Protocol):
                 self.close()
             return
         if len(frame.xml) >= OFF_LOOP_XML:
-            self._decode_off_loop(frame, received_ns)
+            decode_off_loop(self, frame, received_ns)
             return
         try:
             msg = from_frame(frame, self._xml_limits)
@@ -352,35 +278,10 @@ class ServerConnection(asyncio.Protocol):
         self._route(frame, msg, received_ns)
 
     def _undecodable(self, frame: Frame, exc: RemoteProtocolError) -> None:
-        self._log_error(exc)
-        ident, sender = _salvage(frame.xml, self._xml_limits)
+        self.log_error(exc)
+        ident, sender = salvage(frame.xml, self._xml_limits)
         reply = self._error_reply("RECEIVE_ERROR", exc.wire_text(), ident, sender)
         self._send(reply)  # OA-ERR-3: the connection stays usable
-
-    def _decode_off_loop(self, frame: Frame, received_ns: int) -> None:
-        """Decode a large request on a worker thread; later frames wait for it (OA-SESS-2)."""
-        self._decoding = max(len(frame.xml), 1)
-        loop = asyncio.get_running_loop()
-        future = loop.run_in_executor(
-            off_loop_executor(), decode_with_lxml, frame.xml, frame.chunks, self._xml_limits
-        )
-        future.add_done_callback(lambda done: self._decoded(done, frame, received_ns))
-
-    def _decoded(self, done: asyncio.Future[Message], frame: Frame, received_ns: int) -> None:
-        """Route a request decoded off the loop, then take the frames behind it again."""
-        self._decoding = 0
-        if self._closing:
-            return
-        exc = done.exception()
-        if isinstance(exc, RemoteProtocolError):
-            self._undecodable(frame, exc)
-        elif exc is not None:
-            log.warning("event=decode_failed conn=%d detail=%r", self.conn_id, str(exc))
-            self.abort()
-            return
-        else:
-            self._route(frame, done.result(), received_ns)
-        self._resume()
 
     def _resume(self) -> None:
         """Take the frames behind a request decoded or answered off the loop again (OA-SESS-2)."""
@@ -396,28 +297,6 @@ class ServerConnection(asyncio.Protocol):
                 self.transport.resume_reading()
         self._process(time.time_ns())
 
-    def _reply_off_loop(self, later: Callable[[], tuple[Message, bytes | None]]) -> None:
-        """Write a large reply on a worker thread; later requests wait for it (OA-SESS-2).
-
-        A retrieve of thousands of messages takes a second to write (issue #19, item 6).
-        """
-        self._decoding = 1
-        future = asyncio.get_running_loop().run_in_executor(off_loop_executor(), later)
-        future.add_done_callback(self._replied)
-
-    def _replied(self, done: asyncio.Future[tuple[Message, bytes | None]]) -> None:
-        self._decoding = 0
-        if self._closing:
-            return
-        exc = done.exception()
-        if exc is not None:
-            log.warning("event=reply_failed conn=%d detail=%r", self.conn_id, str(exc))
-            self.abort()
-            return
-        reply, wire = done.result()
-        self._send(reply, wire=wire)
-        self._resume()
-
     def _route(self, frame: Frame, msg: Message, received_ns: int) -> None:
         """Hand a decoded request to the router and act on its outcome (OA-SESS-2)."""
         if self._in_flight() >= self.host.limits.max_in_flight:
@@ -428,7 +307,7 @@ class ServerConnection(asyncio.Protocol):
         for reply in outcome.replies:
             self._send(reply)
         if outcome.later is not None:
-            self._reply_off_loop(outcome.later)  # issue #19: a large reply
+            reply_off_loop(self, outcome.later)  # issue #19: a large reply
         if outcome.wait is not None:
             self.waiting = outcome.wait.ticket  # OA-STREAM-7: the reply comes later
         if outcome.close_this:
@@ -440,14 +319,14 @@ class ServerConnection(asyncio.Protocol):
             self.machine.turn(Role.CALLBACK)  # OA-SESS-7, OA-SESS-28: the server requests now
             self.module = msg.sender
             self.host.callback_opened(self, msg.sender)
-            self._arm_keepalive()
+            self.timers.arm_keepalive()
 
     def _on_reply(self, frame: Frame) -> None:
         """Pair a reply with the oldest delivery awaiting one (OA-SESS-33)."""
         try:
             msg = from_frame(frame, self._xml_limits)
         except RemoteProtocolError as exc:
-            self._log_error(exc)
+            self.log_error(exc)
             self._resolve(None, exc)  # an unreadable reply is still the reply (OA-SESS-33)
             return
         if self.machine.is_out_of_turn(msg):
@@ -457,27 +336,7 @@ class ServerConnection(asyncio.Protocol):
 
     def _resolve(self, msg: Message | None, error: Exception | None) -> None:
         """Hand a reply (or its decode error) to the delivery it answers (`SERVER_RULES`)."""
-        paired = self.machine.pair(msg)
-        for passed in paired.passed_over:  # OA-KEEP-3: never blocks the pairing of later replies
-            _fail(passed.token, asyncio.CancelledError())
-        if paired.pending is None:
-            log.warning(
-                "event=protocol_error conn=%d module=%s detail=%s",
-                self.conn_id,
-                self.module,
-                paired.note,
-            )
-            return
-        waiter = paired.pending.token
-        if isinstance(waiter, asyncio.Future):
-            if waiter.done():
-                return
-            if error is not None:
-                waiter.set_exception(error)
-            elif msg is not None:
-                waiter.set_result(msg)
-        elif waiter is not None:
-            waiter(msg, error)
+        resolve(self.machine, msg, error, conn_id=self.conn_id, module=self.module)
 
     # -- sending --------------------------------------------------------------------------------
 
@@ -627,66 +486,16 @@ class ServerConnection(asyncio.Protocol):
         """True once the connection is failed, closing or closed."""
         return self._closing
 
-    # -- timers ---------------------------------------------------------------------------------
-
-    def _arm_deadline(self) -> None:
-        """Watch for a frame that stops arriving (OA-FRAME-12) or takes too long (OA-LIM-13)."""
-        if not self._reader.in_frame or self._closing:
-            return
-        if self._frame_no != self.frames_in:  # a new frame began with the bytes just read
-            self._frame_no = self.frames_in
-            self._frame_began = self._last_byte
-        if self._deadline is None:
-            delay = self._deadline_left(time.monotonic())
-            self._deadline = asyncio.get_running_loop().call_later(delay, self._check_deadline)
-
-    def _deadline_left(self, now: float) -> float:
-        """Seconds until the gap (OA-FRAME-12) or whole-frame (OA-LIM-13) deadline passes."""
-        limits = self.host.limits
-        gap = self._last_byte + limits.frame_deadline_ms / 1000
-        whole = self._frame_began + limits.frame_total_deadline_ms / 1000
-        return min(gap, whole) - now
-
-    def _check_deadline(self) -> None:
-        self._deadline = None
-        if self._closing or not self._reader.in_frame:
-            return
-        now = time.monotonic()
-        left = self._deadline_left(now)
-        if left > 0:
-            self._deadline = asyncio.get_running_loop().call_later(left, self._check_deadline)
-            return
-        limits = self.host.limits
-        if now - self._last_byte >= limits.frame_deadline_ms / 1000:
-            detail = f"no byte of the frame for {limits.frame_deadline_ms / 1000:g} s"
-        else:  # OA-LIM-13: a frame trickled in slower than its whole deadline allows
-            detail = f"the frame took more than {limits.frame_total_deadline_ms / 1000:g} s"
-        self._log_error(FrameTruncatedError(detail))
-        self.abort()  # OA-FRAME-12: the frame is discarded, the connection closed
-
-    def _arm_keepalive(self) -> None:
-        """Send KEEPALIVE after idle time on a connection where the server is the requester."""
-        delay = self.host.flow.keepalive_s
-        self._keepalive = asyncio.get_running_loop().call_later(delay, self._check_keepalive)
-
-    def _check_keepalive(self) -> None:
-        self._keepalive = None
-        if self._closing:
-            return
-        idle = time.monotonic() - self.last_traffic
-        if idle >= self.host.flow.keepalive_s and not self.machine.in_flight:
-            now = AirTime.from_ns(time.time_ns())
-            future = self.send_request(Message(type="KEEPALIVE", posted=now))  # OA-KEEP-1
-            future.add_done_callback(_consume)
-            idle = 0.0
-        delay = max(self.host.flow.keepalive_s - idle, 0.001)
-        self._keepalive = asyncio.get_running_loop().call_later(delay, self._check_keepalive)
+    @property
+    def in_frame(self) -> bool:
+        """True while part of a frame is buffered (its deadlines run; OA-FRAME-12, OA-LIM-13)."""
+        return self._reader.in_frame
 
     # -- closing --------------------------------------------------------------------------------
 
     def _framing_error(self, exc: RemoteProtocolError) -> None:
         """Answer where the table says so, then close this connection only (OA-FRAME-6/7/9)."""
-        self._log_error(exc)
+        self.log_error(exc)
         if exc.reply and self.role is Role.RESPONDER:
             self._send(self._error_reply(exc.reply, exc.wire_text()))  # OA-FRAME-7, OA-FRAME-4
             self.close()
@@ -731,7 +540,7 @@ class ServerConnection(asyncio.Protocol):
         if self.transport is not None:
             self.transport.abort()
 
-    def _log_error(self, exc: OpenAIRError) -> None:
+    def log_error(self, exc: OpenAIRError) -> None:
         log.info(
             "event=protocol_error conn=%d role=%s peer=%s:%d error=%s detail=%r",
             self.conn_id,
@@ -742,24 +551,6 @@ class ServerConnection(asyncio.Protocol):
         )
 
 
-def _consume(future: asyncio.Future[Message]) -> None:
-    """Retrieve a KEEPALIVE's outcome so that asyncio never reports it as unretrieved."""
-    if not future.cancelled():
-        future.exception()
-
-
 def _is_notification(msg: Message, outcome: Outcome) -> bool:
     """Whether a `Receive` frame made its connection a callback connection (OA-SESS-7)."""
     return msg.type == "RECEIVE_NAME_NOTIFICATION" and not outcome.replies
-
-
-def _salvage(xml: bytes, limits: XmlLimits) -> tuple[str, str]:
-    """Return the `id` and `from` of a message that failed to decode, when they can be read.
-
-    OA-SESS-1: the error reply's `isresponse` is the request's id, empty when unreadable.
-    """
-    with contextlib.suppress(OpenAIRError, ValueError):
-        root = parse_xml(xml, limits)
-        found = {local_name(el): (el.text or "").strip() for el in root}
-        return found.get("id", ""), found.get("from", "")
-    return "", ""

@@ -27,7 +27,9 @@ from openair.server.aio.datapath.base import (
     MESSAGE_TAG,
     RESPLICE_MAX,
 )
-from openair.server.aio.protocol import OFF_LOOP_XML, Role, is_callback
+from openair.server.aio.offloop import OFF_LOOP_XML
+from openair.server.aio.pairing import is_callback
+from openair.server.aio.protocol import Role
 
 if TYPE_CHECKING:
     from openair.server.aio.protocol import ServerConnection

@@ -1,0 +1,110 @@
+"""What waits for a reply on a server connection, and how a reply reaches it (OA-SESS-33).
+
+The pairing rules themselves are the shared sans-I/O machine
+(`openair.protocol.connection.Connection` with `SERVER_RULES`); this module holds the asyncio
+side of it: the waiter types a delivery hands the connection (a future, or the dispatcher's
+cheaper callback), ending a wait, and handing a paired reply to its waiter. It also reads the
+`id` and `from` of a request that failed to decode, for the error reply (OA-SESS-1).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Callable
+
+from openair.protocol.connection import Connection, Pending
+from openair.protocol.errors import OpenAIRError
+from openair.protocol.message import Message
+from openair.protocol.xmlsafe import XmlLimits, local_name, parse_xml
+
+__all__ = [
+    "ReplyCallback",
+    "Waiter",
+    "Wire",
+    "consume",
+    "fail_waiter",
+    "is_callback",
+    "resolve",
+    "salvage",
+]
+
+log = logging.getLogger("openair.server")
+
+#: A message's frame written already: its bytes, or parts to write in order (a header and the
+#: XML, then chunks that are never copied into one buffer; spec 11.2).
+Wire = bytes | tuple[bytes, ...]
+
+#: Called with the reply, or with the error that ends the wait (a decode error, the connection
+#: closing, CancelledError when an unanswered KEEPALIVE is passed over).
+ReplyCallback = Callable[[Message | None, BaseException | None], None]
+
+
+#: What waits for a delivery's reply: its future, or the dispatcher's cheaper callback (None: it
+#: keeps its place in the pairing but says nothing).
+Waiter = asyncio.Future[Message] | ReplyCallback | None
+
+
+def fail_waiter(waiter: Waiter, error: BaseException) -> None:
+    """End the wait of `waiter` with `error` (CancelledError: a KEEPALIVE passed over)."""
+    if isinstance(waiter, asyncio.Future):
+        if not waiter.done():
+            if isinstance(error, asyncio.CancelledError):
+                waiter.cancel()
+            else:
+                waiter.set_exception(error)
+    elif waiter is not None:
+        waiter(None, error)
+
+
+def is_callback(pending: Pending[Waiter]) -> bool:
+    """Whether a delivery awaiting its reply was sent with a callback (the dispatcher's path)."""
+    return pending.token is not None and not isinstance(pending.token, asyncio.Future)
+
+
+def resolve(
+    machine: Connection[Waiter],
+    msg: Message | None,
+    error: Exception | None,
+    *,
+    conn_id: int,
+    module: str,
+) -> None:
+    """Hand a reply (or its decode error) to the delivery it answers (`SERVER_RULES`)."""
+    paired = machine.pair(msg)
+    for passed in paired.passed_over:  # OA-KEEP-3: never blocks the pairing of later replies
+        fail_waiter(passed.token, asyncio.CancelledError())
+    if paired.pending is None:
+        log.warning(
+            "event=protocol_error conn=%d module=%s detail=%s", conn_id, module, paired.note
+        )
+        return
+    waiter = paired.pending.token
+    if isinstance(waiter, asyncio.Future):
+        if waiter.done():
+            return
+        if error is not None:
+            waiter.set_exception(error)
+        elif msg is not None:
+            waiter.set_result(msg)
+    elif waiter is not None:
+        waiter(msg, error)
+
+
+def consume(future: asyncio.Future[Message]) -> None:
+    """Retrieve a KEEPALIVE's outcome so that asyncio never reports it as unretrieved."""
+    if not future.cancelled():
+        future.exception()
+
+
+def salvage(xml: bytes, limits: XmlLimits) -> tuple[str, str]:
+    """Return the `id` and `from` of a message that failed to decode, when they can be read.
+
+    OA-SESS-1: the error reply's `isresponse` is the request's id, empty when unreadable.
+    """
+    with contextlib.suppress(OpenAIRError, ValueError):
+        root = parse_xml(xml, limits)
+        found = {local_name(el): (el.text or "").strip() for el in root}
+        return found.get("id", ""), found.get("from", "")
+    return "", ""

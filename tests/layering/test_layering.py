@@ -136,3 +136,22 @@ def test_imports_are_read_wherever_they_run(tmp_path: Path) -> None:
     assert {"openair_conformance.cli", "openair_monitor"} <= targets
     assert "openair_recording.cli_recording" in targets  # named in a "module:attribute" table
     assert "openair.server.aio.app" not in targets  # TYPE_CHECKING imports never run
+
+
+#: Line limit of a hand-written module (issue #17); generated modules say so in their first lines.
+MAX_LINES = 600
+GENERATED_MARK = "do not edit"
+
+
+def test_no_hand_written_module_is_over_600_lines() -> None:
+    """Small modules (house style): every hand-written Python module of the kit <= 600 lines."""
+    long = []
+    for package in ("reference/openair", "apps", "conformance/openair_conformance"):
+        for path in python_files(ROOT / package):
+            text = path.read_text(encoding="utf-8")
+            if GENERATED_MARK in text[:400].lower():
+                continue
+            lines = text.count("\n")
+            if lines > MAX_LINES:
+                long.append(f"{path.relative_to(ROOT)}: {lines} lines")
+    assert not long, "\n".join(long)

@@ -8,10 +8,11 @@ STAMP  := $(VENV)/.installed
 HOST   ?= 127.0.0.1
 PORT   ?= 10000
 PYTEST_ARGS ?=
+PYTEST_WORKERS ?= 2
 
 .PHONY: all venv serve test test-python lint typecheck generate check-generated bench fuzz clean deps-browser
 .PHONY: demo-worldmodel mutation faults
-.PHONY: stress deps-cluster
+.PHONY: stress deps-cluster deps
 
 all: test
 
@@ -64,7 +65,8 @@ deps-cluster:
 	@command -v nats-server >/dev/null || { $(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y nats-server; }
 
 test-python: $(STAMP) deps-browser deps-cluster datapath-native
-	OPENAIR_REQUIRE_BINDINGS=1 OPENAIR_REQUIRE_BROWSER=1 OPENAIR_REQUIRE_CLUSTER=1 $(VENV)/bin/pytest -m "not fuzz" $(PYTEST_ARGS)
+	OPENAIR_REQUIRE_BINDINGS=1 OPENAIR_REQUIRE_BROWSER=1 OPENAIR_REQUIRE_CLUSTER=1 $(VENV)/bin/pytest -m "not fuzz" \
+		-n $(PYTEST_WORKERS) --dist loadfile $(PYTEST_ARGS)
 
 ## Build the server data path's C extension in place (issue #20): the editable venv imports it
 ## from the tree. Without a compiler the pure-Python data path is used (and tested) instead.
@@ -74,8 +76,21 @@ datapath-native: $(STAMP)
 		-o reference/openair/server/aio/datapath/_native$$($(PY) -c 'import sysconfig; print(sysconfig.get_config_var("EXT_SUFFIX"))') \
 		|| echo "datapath-native: no compiler; the pure-Python data path only"
 
-## Install what is needed and pass every test.
-test: check-generated lint typecheck test-cpp test-java test-python
+## Every Debian package `make test` needs, missing ones installed with one apt-get update (the
+## deps-* targets below each check their own part and are no-ops afterwards).
+DEB_NEEDS := /usr/include/gtest/gtest.h:libgtest-dev /usr/include/nlohmann/json.hpp:nlohmann-json3-dev \
+	/usr/include/CLI/CLI.hpp:libcli11-dev /usr/include/openssl/ssl.h:libssl-dev \
+	chromium:chromium chromedriver:chromium-driver dot:graphviz nats-server:nats-server
+deps:
+	@missing=""; for need in $(DEB_NEEDS); do what=$${need%%:*}; pkg=$${need#*:}; \
+		case $$what in /*) [ -f "$$what" ] ;; *) command -v "$$what" >/dev/null ;; esac \
+		|| missing="$$missing $$pkg"; done; \
+	if [ -n "$$missing" ]; then \
+		$(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y $$missing; fi
+
+## Install what is needed and pass every test (pytest on two workers: pytest-xdist, one test
+## file per worker at a time, since some files' tests build on each other in order).
+test: deps check-generated lint typecheck test-cpp test-java test-python
 
 ## The world-model demo (docs/worldmodel.md): exits 0 when the plan fired and terminated.
 demo-worldmodel: $(STAMP)
@@ -136,15 +151,19 @@ deps-cpp:
 		$(CPP_SUDO) apt-get install -y libgtest-dev nlohmann-json3-dev libcli11-dev libssl-dev; \
 	fi
 
-## Configure and build the C++ client, examples and shim (Release) into bindings/cpp/build.
+## Configure and build the C++ client, examples, shim and broken shim (Release) into
+## bindings/cpp/build: what the Python tests drive. CPP_TESTS=ON builds the GoogleTest tests too.
+CPP_TESTS ?= OFF
 cpp: deps-cpp
-	cmake -S $(CPP_DIR) -B $(CPP_DIR)/build -DCMAKE_BUILD_TYPE=Release
+	cmake -S $(CPP_DIR) -B $(CPP_DIR)/build -DCMAKE_BUILD_TYPE=Release \
+		-DOPENAIR_BUILD_TESTS=$(CPP_TESTS) -DOPENAIR_BUILD_BROKEN_SHIM=ON
 	cmake --build $(CPP_DIR)/build --parallel $(CPP_JOBS)
 
-## Build and run the C++ tests, then again under ASan/UBSan in bindings/cpp/build-asan.
+## Build the Release tree, then build and run the C++ tests under ASan/UBSan in
+## bindings/cpp/build-asan (every GoogleTest test, once, sanitized: compiling the tests a second
+## time for a Release run cost a minute of `make test`; `make cpp CPP_TESTS=ON` still builds them).
 test-cpp: deps-cpp
 	$(MAKE) --no-print-directory cpp
-	ctest --test-dir $(CPP_DIR)/build --output-on-failure --parallel $(CPP_JOBS)
 	cmake -S $(CPP_DIR) -B $(CPP_DIR)/build-asan -DCMAKE_BUILD_TYPE=Debug -DOPENAIR_SANITIZE=ON \
 		-DOPENAIR_BUILD_EXAMPLES=OFF -DOPENAIR_BUILD_SHIM=OFF
 	cmake --build $(CPP_DIR)/build-asan --parallel $(CPP_JOBS)

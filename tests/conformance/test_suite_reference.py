@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 from server_thread import ServerThread
+from suite_runs import run_suite
 
 from openair_conformance.engine import RunOptions, run
 from openair_conformance.model import CaseResult, RunSummary, Verdict
@@ -100,8 +101,7 @@ def _judge(results: list[CaseResult]) -> list[CaseResult]:
 
 def test_every_case_passes_against_the_reference_server() -> None:
     with _serving() as target:
-        summary = _run(target, jobs=4)
-    results = list(summary.results)
+        summary, results = run_suite(RunOptions(target=target, jobs=4))  # late: rerun alone
     assert summary.total == len(all_cases())
     bad = _judge(results)
     assert not bad, _explain(bad)

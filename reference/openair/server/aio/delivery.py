@@ -94,6 +94,10 @@ class ModuleDelivery:
         # holds a slot of the window until it ends.
         self._in_flight: set[_Sent | asyncio.Task[None]] = set()
         self._sent: deque[_Sent] = deque()  # in send order: the oldest deadline first
+        # Unsettled deliveries per connection, and in all: `_busy_elsewhere` in O(1), not a scan
+        # of the window per delivery (it was a tenth of the server's CPU at fan-out 1).
+        self._unsettled_on: dict[ServerConnection, int] = {}
+        self._unsettled = 0
         self._timer: asyncio.TimerHandle | None = None
         self._last_conn: ServerConnection | None = None  # written to since the last flush
         self._loop = asyncio.get_running_loop()
@@ -227,6 +231,8 @@ class ModuleDelivery:
         )
         self._in_flight.add(entry)
         self._sent.append(entry)
+        self._unsettled += 1
+        self._unsettled_on[conn] = self._unsettled_on.get(conn, 0) + 1
         if self._timer is None:
             self._timer = self._loop.call_at(entry.deadline, self._check_deadlines)
         self._last_conn = conn
@@ -234,9 +240,8 @@ class ModuleDelivery:
 
     def _acked(self, entry: _Sent, reply: Message | None, error: BaseException | None) -> None:
         """Judge the reply to one delivery: delivered, refused, or retried (OA-DELIV-7)."""
-        if entry.settled:
+        if not self._settle(entry):
             return  # timed out or stopped already
-        entry.settled = True
         while self._sent and self._sent[0].settled:
             self._sent.popleft()
         try:
@@ -280,8 +285,21 @@ class ModuleDelivery:
         if self._sent:
             self._timer = self._loop.call_at(self._sent[0].deadline, self._check_deadlines)
 
+    def _settle(self, entry: _Sent) -> bool:
+        """Mark a delivery answered, expired or stopped; False when it was already."""
+        if entry.settled:
+            return False
+        entry.settled = True
+        self._unsettled -= 1
+        left = self._unsettled_on[entry.conn] - 1
+        if left:
+            self._unsettled_on[entry.conn] = left
+        else:
+            del self._unsettled_on[entry.conn]
+        return True
+
     def _expire(self, entry: _Sent) -> None:
-        entry.settled = True  # a late reply is ignored
+        self._settle(entry)  # a late reply is ignored
         entry.conn.close()  # OA-DELIV-11: a late acknowledgement could no longer be paired
         self._spawn(self._retry_later(entry.attempt, "no acknowledgement before the deadline"))
         self._in_flight.discard(entry)
@@ -378,7 +396,7 @@ class ModuleDelivery:
 
     def _busy_elsewhere(self, conn: ServerConnection) -> bool:
         """Whether a delivery sent on another connection still awaits its acknowledgement."""
-        return any(not entry.settled and entry.conn is not conn for entry in self._sent)
+        return self._unsettled > self._unsettled_on.get(conn, 0)
 
     def _callback_path(self) -> ServerConnection | None:
         """Return the module's open callback connection, if it has one (OA-DELIV-1)."""
@@ -463,7 +481,7 @@ class ModuleDelivery:
         tasks = [self.task]
         for waiting in self._in_flight:
             if isinstance(waiting, _Sent):
-                waiting.settled = True  # its reply, if one comes, is ignored
+                self._settle(waiting)  # its reply, if one comes, is ignored
             else:
                 tasks.append(waiting)
         self._in_flight.clear()

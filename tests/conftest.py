@@ -6,7 +6,9 @@ Select a profile with HYPOTHESIS_PROFILE; CI (CI=true) defaults to `ci`. `make f
 from __future__ import annotations
 
 import os
+from typing import Any
 
+import pytest
 from hypothesis import HealthCheck, settings
 
 settings.register_profile(
@@ -24,3 +26,24 @@ settings.register_profile(
     "soak", max_examples=20_000, deadline=None, suppress_health_check=list(HealthCheck)
 )
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci" if os.environ.get("CI") else "dev"))
+
+
+#: Test folders whose files share one expensive session fixture and must not run in two worker
+#: processes at once: the three-node cluster (two clusters side by side on two cores made the
+#: fault tests' timing fragile).
+ONE_WORKER_FOLDERS = ("tests/cluster/",)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    """`--dist loadfile` (make test), with each of ONE_WORKER_FOLDERS one unit of work."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class _FolderOrFile(LoadFileScheduling):  # type: ignore[misc]
+        def _split_scope(self, nodeid: str) -> str:
+            folder = next((f for f in ONE_WORKER_FOLDERS if nodeid.startswith(f)), None)
+            return folder if folder is not None else str(super()._split_scope(nodeid))
+
+    return _FolderOrFile(config, log)

@@ -53,16 +53,24 @@ typecheck: $(STAMP)
 	MYPYPATH=reference:apps:conformance:examples/worldmodel $(VENV)/bin/mypy --strict examples/worldmodel
 	MYPYPATH=reference:apps:conformance:examples/skundar/python $(VENV)/bin/mypy --strict examples/skundar/python
 
+## Debian packages, each as WHAT:PACKAGE where WHAT (a header file, or a command) shows it is
+## installed. $(call deb_install,NEEDS) installs the missing ones with one apt-get update.
+DEB_CPP     := /usr/include/gtest/gtest.h:libgtest-dev /usr/include/nlohmann/json.hpp:nlohmann-json3-dev \
+	/usr/include/CLI/CLI.hpp:libcli11-dev /usr/include/openssl/ssl.h:libssl-dev
+DEB_BROWSER := chromium:chromium chromedriver:chromium-driver dot:graphviz
+DEB_CLUSTER := nats-server:nats-server
+deb_install = missing=""; for need in $(1); do what=$${need%%:*}; pkg=$${need\#*:}; \
+	case $$what in /*) [ -f "$$what" ] ;; *) command -v "$$what" >/dev/null ;; esac \
+	|| missing="$$missing $$pkg"; done; \
+	if [ -n "$$missing" ]; then $(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y $$missing; fi
+
 ## Install headless Chromium, its driver and Graphviz when missing (browser tests, diagrams).
 deps-browser:
-	@if ! command -v chromium >/dev/null || ! command -v chromedriver >/dev/null \
-		|| ! command -v dot >/dev/null; then \
-		$(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y chromium chromium-driver graphviz; \
-	fi
+	@$(call deb_install,$(DEB_BROWSER))
 
 ## The cluster tests (issue 22) run nats-server in network namespaces: Debian's package.
 deps-cluster:
-	@command -v nats-server >/dev/null || { $(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y nats-server; }
+	@$(call deb_install,$(DEB_CLUSTER))
 
 test-python: $(STAMP) deps-browser deps-cluster datapath-native
 	OPENAIR_REQUIRE_BINDINGS=1 OPENAIR_REQUIRE_BROWSER=1 OPENAIR_REQUIRE_CLUSTER=1 $(VENV)/bin/pytest -m "not fuzz" \
@@ -76,17 +84,10 @@ datapath-native: $(STAMP)
 		-o reference/openair/server/aio/datapath/_native$$($(PY) -c 'import sysconfig; print(sysconfig.get_config_var("EXT_SUFFIX"))') \
 		|| echo "datapath-native: no compiler; the pure-Python data path only"
 
-## Every Debian package `make test` needs, missing ones installed with one apt-get update (the
-## deps-* targets below each check their own part and are no-ops afterwards).
-DEB_NEEDS := /usr/include/gtest/gtest.h:libgtest-dev /usr/include/nlohmann/json.hpp:nlohmann-json3-dev \
-	/usr/include/CLI/CLI.hpp:libcli11-dev /usr/include/openssl/ssl.h:libssl-dev \
-	chromium:chromium chromedriver:chromium-driver dot:graphviz nats-server:nats-server
+## Every Debian package `make test` needs (deps-cpp, deps-browser, deps-cluster together), the
+## missing ones installed with one apt-get update.
 deps:
-	@missing=""; for need in $(DEB_NEEDS); do what=$${need%%:*}; pkg=$${need#*:}; \
-		case $$what in /*) [ -f "$$what" ] ;; *) command -v "$$what" >/dev/null ;; esac \
-		|| missing="$$missing $$pkg"; done; \
-	if [ -n "$$missing" ]; then \
-		$(CPP_SUDO) apt-get update && $(CPP_SUDO) apt-get install -y $$missing; fi
+	@$(call deb_install,$(DEB_CPP) $(DEB_BROWSER) $(DEB_CLUSTER))
 
 ## Install what is needed and pass every test (pytest on two workers: pytest-xdist, one test
 ## file per worker at a time, since some files' tests build on each other in order).
@@ -145,11 +146,7 @@ CPP_SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 ## Install what the C++ build needs when missing (Debian): GoogleTest for test-cpp, and the
 ## header-only nlohmann/json (shim, tests) and CLI11 (examples, tools).
 deps-cpp:
-	@if [ ! -f /usr/include/gtest/gtest.h ] || [ ! -f /usr/include/nlohmann/json.hpp ] \
-		|| [ ! -f /usr/include/CLI/CLI.hpp ] || [ ! -f /usr/include/openssl/ssl.h ]; then \
-		$(CPP_SUDO) apt-get update && \
-		$(CPP_SUDO) apt-get install -y libgtest-dev nlohmann-json3-dev libcli11-dev libssl-dev; \
-	fi
+	@$(call deb_install,$(DEB_CPP))
 
 ## Configure and build the C++ client, examples, shim and broken shim (Release) into
 ## bindings/cpp/build: what the Python tests drive. CPP_TESTS=ON builds the GoogleTest tests too.

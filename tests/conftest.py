@@ -41,7 +41,7 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
         return None
     from xdist.scheduler import LoadFileScheduling
 
-    class _FolderOrFile(LoadFileScheduling):  # type: ignore[misc]
+    class _FolderOrFile(LoadFileScheduling):
         def _split_scope(self, nodeid: str) -> str:
             folder = next((f for f in ONE_WORKER_FOLDERS if nodeid.startswith(f)), None)
             return folder if folder is not None else str(super()._split_scope(nodeid))

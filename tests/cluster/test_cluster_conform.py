@@ -64,11 +64,10 @@ def test_conform_passes_against_every_node(cluster: Cluster) -> None:
 def _shares(nodes: int) -> list[list[str]]:
     """`--case` options per node: none (the whole suite) for the first, families for the rest."""
     families = sorted({c.info.id.rsplit("-", 1)[0] for c in all_cases()})
-    rest = max(nodes - 1, 1)
     shares: list[list[str]] = [[] for _ in range(nodes)]
-    for n, family in enumerate(families):
-        shares[1 + n % rest].extend(["--case", f"{family}-*"])
-    return [[], *shares[1:]] if nodes > 1 else [[]]
+    for n, family in enumerate(families if nodes > 1 else ()):
+        shares[1 + n % (nodes - 1)] += ["--case", f"{family}-*"]
+    return shares
 
 
 def _summary(output: str) -> str:

@@ -28,6 +28,7 @@ from typing import Any
 import pytest
 from mutants import CATALOGUE, Fault, Mutant, spec_match
 from server_thread import ServerThread
+from suite_runs import run_suite
 
 from openair.catalogue import DEFAULT_CATALOGUE, load_catalogue
 from openair_conformance.engine import RunOptions, run
@@ -78,18 +79,25 @@ async def _reference_path(starting: Coroutine[Any, Any, Any]) -> Any:
 
 
 def _run_cases(
-    limits: Limits, cases: Sequence[RegisteredCase], *, jobs: int = JOBS
+    limits: Limits, cases: Sequence[RegisteredCase], *, rerun_late: bool = False
 ) -> dict[str, CaseResult]:
+    """Run `cases` against a fresh server (the mutant's, when one is active).
+
+    With `rerun_late` (the clean server only) a late case is run again alone (suite_runs).
+    """
     with _serving(limits) as target:
         options = RunOptions(
             target=target,
-            jobs=jobs,
+            jobs=JOBS,
             timeout_scale=TIMEOUT_SCALE,
             fuzz_examples=FUZZ_EXAMPLES,
             replay=FUZZ_SEED,
         )
-        summary = asyncio.run(run(options, cases=cases))
-    return {r.info.id: r for r in summary.results}
+        if rerun_late:
+            results = run_suite(options, cases)[1]
+        else:
+            results = list(asyncio.run(run(options, cases=cases)).results)
+    return {r.info.id: r for r in results}
 
 
 @cache
@@ -122,14 +130,10 @@ def control() -> dict[Limits, dict[str, CaseResult]]:
     wanted: dict[Limits, set[str]] = {}
     for m in CATALOGUE.values():
         wanted.setdefault(m.limits, set()).update(selection(m.id))
-    results: dict[Limits, dict[str, CaseResult]] = {}
-    for limits, ids in sorted(wanted.items()):
-        got = _run_cases(limits, [_cases()[i] for i in sorted(ids)])
-        late = [i for i, r in got.items() if r.verdict is Verdict.TIMING]
-        if late:
-            got.update(_run_cases(limits, [_cases()[i] for i in late], jobs=1))
-        results[limits] = got
-    return results
+    return {
+        limits: _run_cases(limits, [_cases()[i] for i in sorted(ids)], rerun_late=True)
+        for limits, ids in sorted(wanted.items())
+    }
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)

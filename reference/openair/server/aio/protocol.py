@@ -56,7 +56,7 @@ from openair.server.aio.timers import ConnectionTimers
 from openair.server.core.budgets import Budget
 from openair.server.core.router import Outcome
 
-__all__ = ["ReplyCallback", "Role", "ServerConnection", "Wire"]
+__all__ = ["Role", "ServerConnection"]
 
 log = logging.getLogger("openair.server")
 

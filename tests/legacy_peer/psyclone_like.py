@@ -207,16 +207,16 @@ class LegacyConnection(ServerConnection):
             transport = _PacedTransport(transport, pace)
         super().connection_made(transport)
 
-    def _send(self, msg: Message, tag: FrameTag = FrameTag.MESSAGE, wire: Any = None) -> bool:
-        return super()._send(msg, tag, None)  # always re-encode: the legacy form
+    def send(self, msg: Message, tag: FrameTag = FrameTag.MESSAGE, wire: Any = None) -> bool:
+        return super().send(msg, tag, None)  # always re-encode: the legacy form
 
-    def _encode(self, msg: Message, tag: FrameTag) -> tuple[bytes, ...]:
+    def encode(self, msg: Message, tag: FrameTag) -> tuple[bytes, ...]:
         if tag is FrameTag.BINARY:
-            return super()._encode(msg, tag)
+            return super().encode(msg, tag)
         try:
             frame = to_frame(msg, tag)
         except ApiMisuseError:
-            return super()._encode(msg, tag)  # its RECEIVE_ERROR
+            return super().encode(msg, tag)  # its RECEIVE_ERROR
         xml = legacy_xml(frame.xml, self.host.legacy)
         return (encode_frame(Frame(tag=tag, xml=xml, chunks=frame.chunks)),)
 

@@ -3,7 +3,7 @@
 Frame mutants replace the `FrameReader` and `encode_frame` that `openair.server.aio.protocol`
 imports (the harness reads frames with its own reference to the real ones) or wrap
 `ServerConnection`. Validity mutants make the server's decoder lenient: when
-`openair.server.aio.protocol.from_frame` refuses a message MESSAGE_INVALID, a `fix` edits the XML
+`openair.server.aio.responder.from_frame` refuses a message MESSAGE_INVALID, a `fix` edits the XML
 and the message is decoded again, so a message the spec refuses is accepted.
 """
 
@@ -20,7 +20,7 @@ from openair.protocol.errors import MessageInvalidError, RemoteProtocolError
 from openair.protocol.framing import Frame, FrameReader, FrameTag
 from openair.protocol.message import Message
 from openair.protocol.xmlsafe import local_name, parse_xml
-from openair.server.aio import delivery, protocol
+from openair.server.aio import delivery, protocol, responder, writer
 
 # --- frames (2.1, 2.2) ---------------------------------------------------------------------------
 
@@ -62,7 +62,7 @@ def _bad_header_answered(mp: pytest.MonkeyPatch) -> None:
             if exc.reply or self.role is not protocol.Role.RESPONDER:
                 original(self, exc)
                 return
-            self._send(self._error_reply("RECEIVE_ERROR", exc.wire_text()))
+            self.send(writer.error_reply(self.name, "RECEIVE_ERROR", exc.wire_text()))
             self.close()
 
         return _framing_error
@@ -95,7 +95,7 @@ def _length_in_chars(mp: pytest.MonkeyPatch) -> None:
 
         return encode_frame
 
-    wrap(mp, protocol, "encode_frame", make)
+    wrap(mp, writer, "encode_frame", make)
 
 
 # --- message validity (3.1, 3.2, 4) --------------------------------------------------------------
@@ -119,7 +119,7 @@ def _lenient(mp: pytest.MonkeyPatch, fix: Callable[[etree._Element], bool]) -> N
 
         return decode
 
-    wrap(mp, protocol, "from_frame", make)
+    wrap(mp, responder, "from_frame", make)
 
 
 def _children(root: etree._Element, name: str) -> list[etree._Element]:

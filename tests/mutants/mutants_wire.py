@@ -22,7 +22,7 @@ from openair.protocol.errors import RemoteProtocolError
 from openair.protocol.framing import Frame, FrameTag
 from openair.protocol.message import Message
 from openair.protocol.xmlsafe import XmlLimits
-from openair.server.aio import delivery, protocol, timers
+from openair.server.aio import delivery, protocol, responder, timers, writer
 from openair.server.core import commands, retrieve, sessions
 from openair.server.core.config import ServerLimits
 from openair.server.core.queues import DeliveryQueue
@@ -87,9 +87,9 @@ def _isresponse(mp: pytest.MonkeyPatch) -> None:
 @mutant("replies-reversed", "requests that arrive together are answered last first", "OA-SESS-2")
 def _replies_reversed(mp: pytest.MonkeyPatch) -> None:
     conn = protocol.ServerConnection
-    send = conn._send
+    send = conn.send
 
-    def _send(self: Any, msg: Message, *args: Any, **kwargs: Any) -> bool:
+    def send_(self: Any, msg: Message, *args: Any, **kwargs: Any) -> bool:
         held = self.__dict__.get("_mutant_held")
         if held is None or self.role is not protocol.Role.RESPONDER:
             return bool(send(self, msg, *args, **kwargs))
@@ -108,7 +108,7 @@ def _replies_reversed(mp: pytest.MonkeyPatch) -> None:
 
         return data_received
 
-    mp.setattr(conn, "_send", _send)
+    mp.setattr(conn, "send", send_)
     wrap(mp, conn, "data_received", make)
 
 
@@ -224,15 +224,15 @@ def _malformed(mp: pytest.MonkeyPatch) -> None:
         def _on_request(self: Any, frame: Frame, received_ns: int) -> None:
             if frame.tag is not FrameTag.BINARY:
                 try:
-                    from_frame(frame, self.host.limits.xml_limits())
+                    from_frame(frame, self.conn.host.limits.xml_limits())
                 except RemoteProtocolError:
-                    self.abort()
+                    self.conn.abort()
                     return
             original(self, frame, received_ns)
 
         return _on_request
 
-    wrap(mp, protocol.ServerConnection, "_on_request", make)
+    wrap(mp, responder.Responder, "on_request", make)
 
 
 @mutant("doctype-ignored", "a DOCTYPE is dropped instead of refused", "OA-SEC-1")
@@ -247,7 +247,7 @@ def _doctype(mp: pytest.MonkeyPatch) -> None:
 
         return decode
 
-    wrap(mp, protocol, "from_frame", make)
+    wrap(mp, responder, "from_frame", make)
 
 
 @mutant(
@@ -259,7 +259,7 @@ def _oversized(mp: pytest.MonkeyPatch) -> None:
     def make(original: Fn) -> Fn:
         def _framing_error(self: Any, exc: RemoteProtocolError) -> None:
             if exc.reply and self.role is protocol.Role.RESPONDER:
-                self._send(self._error_reply(exc.reply, exc.wire_text()))
+                self.send(writer.error_reply(self.name, exc.reply, exc.wire_text()))
                 return
             original(self, exc)
 
@@ -288,7 +288,7 @@ def _wbid_unpadded(mp: pytest.MonkeyPatch) -> None:
 
         return to_frame
 
-    wrap(mp, protocol, "to_frame", make)
+    wrap(mp, writer, "to_frame", make)
 
 
 @mutant("gettime-usec-always", "GET_TIME has usec though the module did not declare it", "OA-GEN-2")
@@ -408,7 +408,7 @@ def _binary_ignored(mp: pytest.MonkeyPatch) -> None:
 
         return _on_request
 
-    wrap(mp, protocol.ServerConnection, "_on_request", make)
+    wrap(mp, responder.Responder, "on_request", make)
 
 
 @mutant("xml-depth-off-by-one", "XML one level deeper than max-xml-depth is accepted", "OA-LIM-3")

@@ -22,8 +22,7 @@ from openair.protocol.content import RetrieveSpec
 from openair.protocol.framing import encode_frame
 from openair.protocol.message import Message
 from openair.protocol.objects import parse_dictionary
-from openair.server.aio import offloop as offloop_module
-from openair.server.aio import protocol as protocol_module
+from openair.server.aio import responder as responder_module
 from openair.server.aio.app import ServerOptions
 from openair.server.aio.connhost import FlowLimits
 from openair.server.aio.dispatcher import DeliveryOptions
@@ -304,7 +303,7 @@ def test_a_large_request_is_decoded_off_the_loop_and_answered_in_order(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     threads: list[str] = []
-    original, original_lxml = protocol_module.from_frame, offloop_module.decode_with_lxml
+    original, original_lxml = responder_module.from_frame, responder_module.decode_with_lxml
 
     def recording(frame: Any, limits: Any) -> Message:
         threads.append(threading.current_thread().name)
@@ -314,13 +313,13 @@ def test_a_large_request_is_decoded_off_the_loop_and_answered_in_order(
         threads.append(threading.current_thread().name)  # off the loop: lxml lets the lock go
         return original_lxml(xml, chunks, limits)
 
-    monkeypatch.setattr(protocol_module, "from_frame", recording)
-    monkeypatch.setattr(offloop_module, "decode_with_lxml", recording_lxml)
+    monkeypatch.setattr(responder_module, "from_frame", recording)
+    monkeypatch.setattr(responder_module, "decode_with_lxml", recording_lxml)
 
     async def body() -> None:
         server = await serving()
         raw = await Raw.open(server.port)
-        refs = b"&#65;" * (protocol_module.OFF_LOOP_XML // 5 + 1)  # sent as references
+        refs = b"&#65;" * (responder_module.OFF_LOOP_XML // 5 + 1)  # sent as references
         big = Message(
             type="Test.Refs", to="WB1", sender="P", content="<r>R</r>", content_is_xml=True
         )

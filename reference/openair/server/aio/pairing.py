@@ -4,7 +4,8 @@ The pairing rules themselves are the shared sans-I/O machine
 (`openair.protocol.connection.Connection` with `SERVER_RULES`); this module holds the asyncio
 side of it: the waiter types a delivery hands the connection (a future, or the dispatcher's
 cheaper callback), ending a wait, and handing a paired reply to its waiter. It also reads the
-`id` and `from` of a request that failed to decode, for the error reply (OA-SESS-1).
+`id` and `from` of a request that failed to decode, for the error reply (OA-SESS-1), and the
+`Requester`: the requester side of a connection (deliveries sent, replies paired).
 """
 
 from __future__ import annotations
@@ -13,14 +14,26 @@ import asyncio
 import contextlib
 import logging
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from openair.protocol.connection import Connection, Pending
-from openair.protocol.errors import OpenAIRError
+from openair.protocol.codec import from_frame
+from openair.protocol.connection import Connection, Pending, Role, answer_type
+from openair.protocol.errors import (
+    ApiMisuseError,
+    ConnectionClosedError,
+    OpenAIRError,
+    RemoteProtocolError,
+)
+from openair.protocol.framing import Frame
 from openair.protocol.message import Message
 from openair.protocol.xmlsafe import XmlLimits, local_name, parse_xml
 
+if TYPE_CHECKING:
+    from openair.server.aio.protocol import ServerConnection
+
 __all__ = [
     "ReplyCallback",
+    "Requester",
     "Waiter",
     "Wire",
     "consume",
@@ -108,3 +121,79 @@ def salvage(xml: bytes, limits: XmlLimits) -> tuple[str, str]:
         found = {local_name(el): (el.text or "").strip() for el in root}
         return found.get("id", ""), found.get("from", "")
     return "", ""
+
+
+class Requester:
+    """The requester side of a CALLBACK, OUTBOUND or PUSH connection (OA-SESS-28, OA-SESS-33).
+
+    Sends deliveries (and KEEPALIVE, pushed samples) and pairs each reply with the oldest request
+    awaiting one; answers a PING or KEEPALIVE the peer sends out of turn (OA-SESS-10, OA-KEEP-2).
+    """
+
+    __slots__ = ("conn",)
+
+    def __init__(self, conn: ServerConnection) -> None:
+        self.conn = conn
+
+    def send_request(self, msg: Message, wire: Wire | None = None) -> asyncio.Future[Message]:
+        """Send a request; return its reply's future.
+
+        `wire`, when given, is the Message frame of `msg` already written (sent as it is).
+        A `noreply` message (only sent to a module that declared `noreply`) expects no reply:
+        its future is already resolved with the message itself (OA-MSG-15).
+        """
+        conn = self.conn
+        if conn.role is Role.RESPONDER:
+            raise ApiMisuseError("the server is not the requester on this connection")
+        future: asyncio.Future[Message] = asyncio.get_running_loop().create_future()
+        if conn.is_closing:
+            future.set_exception(ConnectionClosedError("the connection is closed"))
+            return future
+        conn.machine.send_request(msg.id, msg.type, future, expects_reply=not msg.noreply)
+        if not conn.send(msg, wire=wire):
+            if not future.done():
+                future.set_exception(ConnectionClosedError("the connection was cut off"))
+        elif msg.noreply:
+            future.set_result(msg)
+        return future
+
+    def send_request_cb(self, msg: Message, wire: Wire | None, callback: ReplyCallback) -> None:
+        """Send a request like `send_request`, but hand the outcome to `callback` (no future).
+
+        The callback runs at most once, possibly before this returns (a closed connection,
+        `noreply`).
+        """
+        conn = self.conn
+        if conn.role is Role.RESPONDER:
+            raise ApiMisuseError("the server is not the requester on this connection")
+        if conn.is_closing:
+            callback(None, ConnectionClosedError("the connection is closed"))
+            return
+        pending = conn.machine.send_request(
+            msg.id, msg.type, callback, expects_reply=not msg.noreply
+        )
+        if not conn.send(msg, wire=wire):
+            if pending is not None:
+                pending.token = None  # it keeps its place in the pairing, but says nothing
+            callback(None, ConnectionClosedError("the connection was cut off"))
+        elif msg.noreply:
+            callback(msg, None)
+
+    def on_reply(self, frame: Frame) -> None:
+        """Pair a reply with the oldest delivery awaiting one (OA-SESS-33)."""
+        conn = self.conn
+        try:
+            msg = from_frame(frame, conn.xml_limits)
+        except RemoteProtocolError as exc:
+            conn.log_error(exc)
+            self.resolve(None, exc)  # an unreadable reply is still the reply (OA-SESS-33)
+            return
+        if conn.machine.is_out_of_turn(msg):
+            conn.send(msg.reply(answer_type(msg.type), sender=conn.name))  # OA-SESS-10, KEEP-2
+            return
+        self.resolve(msg, None)
+
+    def resolve(self, msg: Message | None, error: Exception | None) -> None:
+        """Hand a reply (or its decode error) to the delivery it answers (`SERVER_RULES`)."""
+        conn = self.conn
+        resolve(conn.machine, msg, error, conn_id=conn.conn_id, module=conn.module)

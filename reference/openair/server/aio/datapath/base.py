@@ -25,7 +25,7 @@ __all__ = ["ACK_XML", "MARKER", "MESSAGE_FRAME", "MESSAGE_TAG", "RESPLICE_MAX", 
 
 #: The first 8 header bytes of a Message frame (OA-FRAME-1).
 MESSAGE_TAG = b"Message\0"
-#: The frame `_route` is told the request came in: only its tag is read.
+#: The frame `Responder.route` is told the request came in: only its tag is read.
 MESSAGE_FRAME = Frame(tag=FrameTag.MESSAGE)
 #: Unread bytes the reader may hold and still be taken back into the data path; more (a large
 #: frame arriving over many reads) stays with the reader so no byte is copied twice per read.

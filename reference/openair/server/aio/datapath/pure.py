@@ -6,7 +6,7 @@ decoder; see DESIGN-NOTES "2026-11-28 — a bytes-level data path"):
 * on a RESPONDER connection, a complete `Message` frame whose XML has no `binarysizes` (so it
   carries no chunks, OA-FRAME-4), is under the off-loop size and that the strict canonical
   decoder (`fastcodec.fast_decode`, the reference decoder's own first step) reads: it is routed
-  exactly as the reference path routes it (`ServerConnection._route`), without a `FrameReader`
+  exactly as the reference path routes it (`Responder.route`), without a `FrameReader`
   pass or a `Frame` object;
 * on a CALLBACK or OUTBOUND connection, a complete `Message` frame whose XML is a canonical
   RECEIVE_ACCEPT (`base.ACK_XML`) answering a delivery the dispatcher sent with a callback: it
@@ -27,9 +27,9 @@ from openair.server.aio.datapath.base import (
     MESSAGE_TAG,
     RESPLICE_MAX,
 )
-from openair.server.aio.offloop import OFF_LOOP_XML
 from openair.server.aio.pairing import is_callback
 from openair.server.aio.protocol import Role
+from openair.server.aio.responder import OFF_LOOP_XML
 
 if TYPE_CHECKING:
     from openair.server.aio.protocol import ServerConnection
@@ -49,7 +49,7 @@ def take_buffered(conn: ServerConnection, data: bytes) -> bytes | None:
     None when the reader keeps them (too many, or a frame it found ahead of time): the data path
     must then leave this read to the reader too, or it would act on it out of order.
     """
-    reader = conn._reader
+    reader = conn.reader
     if not reader.buffered:
         return data
     held = reader.take_unread(RESPLICE_MAX)
@@ -85,7 +85,7 @@ class PurePath:
         self.acks = 0  # acknowledgements it paired
 
     def feed(self, conn: ServerConnection, data: bytes, received_ns: int) -> bytes:
-        buf = take_buffered(conn, data) if conn._reader.buffered else data
+        buf = take_buffered(conn, data) if conn.reader.buffered else data
         if buf is None:
             return data
         if conn.role is Role.RESPONDER:
@@ -98,7 +98,7 @@ class PurePath:
 
     def _requests(self, conn: ServerConnection, buf: bytes, received_ns: int) -> int:
         """Route the recognised requests at the front of `buf`; return where the rest starts."""
-        limits = conn._xml_limits
+        limits = conn.xml_limits
         max_xml = min(conn.host.limits.frame_limits().max_xml, OFF_LOOP_XML - 1)
         pos = 0
         for start, end in self.split(buf, 0, max_xml):
@@ -108,11 +108,10 @@ class PurePath:
             pos = end
             conn.frames_in += 1
             self.requests += 1
-            conn._route(MESSAGE_FRAME, msg, received_ns)
+            conn.responder.route(MESSAGE_FRAME, msg, received_ns)
             if (
-                conn._closing
-                or conn.waiting is not None
-                or conn._decoding  # a reply being written off the loop (issue #19, OA-SESS-2)
+                conn.is_closing
+                or conn.responder.held  # a WAIT_FOR_*, a reply written off the loop (OA-SESS-2)
                 or conn.role is not Role.RESPONDER
             ):
                 break  # the reference path stops here too (OA-FRAME-9, OA-STREAM-7)
@@ -120,7 +119,7 @@ class PurePath:
 
     def _replies(self, conn: ServerConnection, buf: bytes) -> int:
         """Pair the canonical acks at the front of `buf`; return where the rest starts."""
-        limits = conn._xml_limits
+        limits = conn.xml_limits
         if limits.max_depth < 2:
             return 0
         pos = 0
@@ -130,8 +129,8 @@ class PurePath:
             pos = end
             conn.frames_in += 1
             self.acks += 1
-            conn._resolve(ACK, None)
-            if conn._closing:
+            conn.requester.resolve(ACK, None)
+            if conn.is_closing:
                 break
         return pos
 
@@ -139,8 +138,8 @@ class PurePath:
 def _callback_next(conn: ServerConnection) -> bool:
     """Whether the request an ack would pair with was sent with a callback (the dispatcher's).
 
-    Leading KEEPALIVEs are passed over by the pairing (OA-KEEP-3), as `_resolve` does. A PING
-    expects PING_SUCCESS, so a RECEIVE_ACCEPT answering it is a refusal whose text the
+    Leading KEEPALIVEs are passed over by the pairing (OA-KEEP-3), as `Requester.resolve` does.
+    A PING expects PING_SUCCESS, so a RECEIVE_ACCEPT answering it is a refusal whose text the
     dispatcher logs: that one goes to the decoder.
     """
     for pending in conn.machine.pending():

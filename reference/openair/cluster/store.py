@@ -27,10 +27,12 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Coroutine
-from dataclasses import dataclass, field
 from functools import partial
 from typing import TYPE_CHECKING, Any, TypeVar
 
+from openair.cluster.reading import CHECK_FIRST, LeaderUnreachable, committed, fill
+from openair.cluster.reading import ID_HEADER as _ID
+from openair.cluster.reading import Board as _Board
 from openair.cluster.tasks import cancel_all, expire, quietly
 from openair.cluster.wire import (
     ClusterSpec,
@@ -51,27 +53,11 @@ __all__ = ["ClusterSpec", "ClusterStore", "decode_copy", "encode_copy", "parse_s
 
 log = logging.getLogger("openair.cluster")
 _T = TypeVar("_T")
-_ID = "Nats-Msg-Id"  # the header that names a node's own copy when it comes back
 _NODES = "openair.node."  # heartbeats: the node's name in hex, its bound modules as JSON
 _BEAT_S = 0.5
 _DEAD_S = 3.0  # a node not heard for this long is dead (OA-CLU-7)
 _WATCH_S = 0.5  # how often a node compares what it read with each stream's end
 _HEARTBEAT_S = 1.0  # the ordered consumers' idle heartbeat
-
-
-@dataclass(slots=True)
-class _Board:
-    """What the consumer of one whiteboard's stream has received and not yet handed over."""
-
-    name: str
-    pending: deque[Message] = field(default_factory=deque)
-    through: int = 0  # every stream sequence up to this one is received (or discarded)
-    stalled_at: int = -1  # `through` when the stream was last seen ahead of it
-    sub: Any = None  # the consumer's subscription
-    generation: int = 0  # of the subscription: copies from an older one are ignored
-    skipped: int = 0  # payloads that did not decode
-    filled: int = 0  # copies a consumer skipped, fetched from the stream (OA-CLU-1)
-    lock: asyncio.Lock = field(default_factory=asyncio.Lock)  # one copy taken at a time
 
 
 class ClusterStore:
@@ -304,41 +290,28 @@ class ClusterStore:
                 seq = int(msg.metadata.sequence.stream)
                 if seq <= board.through:
                     return  # a consumer read again from an earlier point: held already
-                if seq > board.through + 1 and not await self._fill(board, seq):
+                if seq > board.through + 1 and not await fill(self._js, board, seq, self._accept):
                     if generation == board.generation:
                         board.generation += 1  # read again from the gap (the watchdog)
                     return
+                copy = (msg.data, (msg.headers or {}).get(_ID))
+                if int(msg.metadata.sequence.consumer) <= CHECK_FIRST and (
+                    board.unchecked != generation  # a new consumer's (reading.py)
+                ):
+                    try:
+                        checked = await committed(self._js, board, seq, *copy)
+                    except LeaderUnreachable:
+                        board.unchecked = generation  # as it comes: never wait for an election
+                        checked = copy
+                    if checked is None:
+                        if generation == board.generation:
+                            board.generation += 1  # not committed: read again from `seq`
+                        return
+                    copy = checked
                 if generation == board.generation:
-                    self._accept(board, seq, msg.data, (msg.headers or {}).get(_ID))
+                    self._accept(board, seq, *copy)
 
         return received
-
-    async def _fill(self, board: _Board, seq: int) -> bool:
-        """Fetch from the stream the copies before `seq` the consumer skipped (OA-CLU-1): an
-        ordered consumer checks its delivery sequence, not the stream's. Copies the limit
-        discarded (OA-WB-6) are not missing. False when the stream cannot be read: `seq` is not
-        taken and the watchdog reads again from the gap."""
-        from nats.js.errors import NotFoundError
-
-        name = stream_name(board.name)
-        generation = board.generation
-        try:
-            info = await self._js.stream_info(name)
-            for missing in range(max(board.through + 1, int(info.state.first_seq or 1)), seq):
-                try:
-                    raw = await self._js.get_msg(name, missing)
-                except NotFoundError:
-                    continue  # discarded since (OA-WB-6)
-                if generation != board.generation:
-                    return False
-                self._accept(board, missing, raw.data or b"", (raw.headers or {}).get(_ID))
-                board.filled += 1
-                log.warning("event=cluster_gap_filled whiteboard=%s wbid=%d", board.name, missing)
-        except Exception as exc:
-            gap = f"from={board.through + 1} to={seq - 1}"
-            log.warning("event=cluster_gap whiteboard=%s %s detail=%r", board.name, gap, str(exc))
-            return False
-        return generation == board.generation
 
     def _accept(self, board: _Board, seq: int, data: bytes, ident: str | None) -> None:
         """Hand one copy over: the next after `through` (client thread)."""
@@ -557,6 +530,11 @@ class ClusterStore:
         info = self._call(self._js.stream_info(stream_name(whiteboard)), self.timeout_s + 1.0)
         last = int(info.state.last_seq or 0)
         if last and not self._wait_through(whiteboard, last, self.timeout_s):
+            # The consumer stalls (after an election JetStream refused consumers for 15 s):
+            # the rest is read from the stream's leader, as a gap is (OA-CLU-3).
+            with contextlib.suppress(Exception):
+                self._call(self._catch_up(self._boards[whiteboard], last), self.timeout_s + 1.0)
+        if last and not self._wait_through(whiteboard, last, 0.0):
             through = self._boards[whiteboard].through
             log.warning(
                 "event=cluster_sync_short whiteboard=%s through=%d last=%d",
@@ -565,6 +543,11 @@ class ClusterStore:
                 last,
             )
             raise TimeoutError(f"{whiteboard}: the stream was not read up to {last} in time")
+
+    async def _catch_up(self, board: _Board, last: int) -> None:
+        async with board.lock:  # not beside the receiver: one copy taken at a time
+            if board.through < last and await fill(self._js, board, last + 1, self._accept):
+                log.warning("event=cluster_caught_up whiteboard=%s wbid=%d", board.name, last)
 
     # -- helpers ---------------------------------------------------------------------------------
 
@@ -586,6 +569,7 @@ class ClusterStore:
             pending = sum(len(b.pending) for b in self._boards.values())
             skipped = sum(b.skipped for b in self._boards.values())
             filled = sum(b.filled for b in self._boards.values())
+            replaced = sum(b.replaced for b in self._boards.values())
         return {
             "node": self.spec.node,
             "published": self.published,
@@ -595,4 +579,5 @@ class ClusterStore:
             "pending": pending,
             "skipped": skipped,
             "filled": filled,
+            "replaced": replaced,
         }

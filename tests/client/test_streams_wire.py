@@ -9,7 +9,7 @@ from client_helpers import FIXED_NS, frames, wire
 from hypothesis import given
 from hypothesis import strategies as st
 
-from openair.client.link import _coalesce
+from openair.client.link import _JOIN_BELOW
 from openair.client.module import FailedReplyError
 from openair.client.session import ClientConnection, Reply
 from openair.client.stream_wire import (
@@ -43,7 +43,7 @@ from openair.protocol.errors import (
     SampleUnknownError,
     StreamUnknownError,
 )
-from openair.protocol.framing import FrameLimits, FrameReader, FrameTag
+from openair.protocol.framing import FrameLimits, FrameReader, FrameTag, coalesce
 from openair.protocol.message import Message, Slot
 from openair.protocol.objects import parse_root, parse_time
 from openair.protocol.times import AirTime
@@ -375,7 +375,7 @@ def test_error_from_keeps_the_detail() -> None:
 def test_the_writer_joins_small_parts_and_keeps_large_ones() -> None:
     big = memoryview(bytearray(100_000))
     parts: list[bytes | bytearray | memoryview] = [b"head", b"len4", big, b"params\0"]
-    out = _coalesce(parts)
+    out = coalesce(parts, _JOIN_BELOW)
     assert out[0] == b"headlen4" and out[1] is big and out[2] == b"params\0"
-    assert _coalesce([b"a", b"b", b"c"]) == [b"abc"]
-    assert _coalesce([]) == []
+    assert coalesce([b"a", b"b", b"c"], _JOIN_BELOW) == [b"abc"]
+    assert coalesce([], _JOIN_BELOW) == []

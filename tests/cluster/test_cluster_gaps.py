@@ -8,7 +8,9 @@ earlier one is missing: it fetches the gap from the stream, or takes nothing and
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import cache
 from types import SimpleNamespace
@@ -73,6 +75,20 @@ def _node(stream: _FakeStream) -> tuple[ClusterStore, _Board]:
     return store, board
 
 
+@contextlib.contextmanager
+def _client_thread(store: ClusterStore) -> Iterator[None]:
+    """Run the store's client loop on a thread of its own, as `connect` does."""
+    loop = asyncio.new_event_loop()
+    thread = threading.Thread(target=loop.run_forever, daemon=True)
+    thread.start()
+    store._loop = loop
+    try:
+        yield
+    finally:
+        loop.call_soon_threadsafe(loop.stop)
+        thread.join(5.0)
+
+
 async def _deliver(store: ClusterStore, board: _Board, seqs: list[int]) -> None:
     received = store._receiver(board, board.generation)
     for seq in seqs:
@@ -133,17 +149,10 @@ class _Misnumbering:
 def test_the_own_copy_is_adopted_where_it_came_back_not_where_it_was_acknowledged() -> None:
     store, board = _node(_FakeStream(first=1, last=8))
     store._js = _Misnumbering(store, board, acked=7, stored=8)
-    loop = asyncio.new_event_loop()
-    thread = threading.Thread(target=loop.run_forever, daemon=True)
-    thread.start()
-    store._loop = loop
-    try:
+    with _client_thread(store):
         mine = Message(type="T.Mine", sender="n1", to="WB", content="mine")
         wbid = store.publish("WB", mine)
         earlier = store.take("WB", wbid)
-    finally:
-        loop.call_soon_threadsafe(loop.stop)
-        thread.join(5.0)
     assert wbid == 8 and store.misnumbered == 1
     assert [(m.wbid, m.content) for m in earlier] == [(n, f"post-{n}") for n in range(1, 8)]
     assert store.take("WB") == []  # the own copy came back and is not adopted twice
@@ -176,20 +185,13 @@ def test_a_copy_that_does_not_come_back_is_checked_in_the_stream(holds: bool) ->
     store, board = _node(_FakeStream(first=1, last=3))
     store._js = _NeverBack(store, board, holds=holds)
     store.timeout_s = 0.2
-    loop = asyncio.new_event_loop()
-    thread = threading.Thread(target=loop.run_forever, daemon=True)
-    thread.start()
-    store._loop = loop
-    try:
+    with _client_thread(store):
         mine = Message(type="T.Mine", sender="n1", to="WB", content="mine")
         if holds:
             assert store.publish("WB", mine) == 3  # adopted there, the earlier copies later
         else:  # STORE_FAILED (OA-CLU-2): adopted from the stream when it comes back
             with pytest.raises(TimeoutError):
                 store.publish("WB", mine)
-    finally:
-        loop.call_soon_threadsafe(loop.stop)
-        thread.join(5.0)
     assert store.late == 1
 
 
@@ -287,17 +289,10 @@ def test_a_retrieve_whose_consumer_stalls_reads_the_rest_from_the_stream() -> No
     store, board = _node(stream)
     asyncio.run(_deliver(store, board, [1, 2, 3]))  # then the consumer stops
     store.timeout_s = 0.2
-    loop = asyncio.new_event_loop()
-    thread = threading.Thread(target=loop.run_forever, daemon=True)
-    thread.start()
-    store._loop = loop
-    try:
+    with _client_thread(store):
         store.sync("WB")
         stream.unavailable, stream.last = 10, 7  # the leader cannot answer either: it says so
         with pytest.raises(TimeoutError):
             store.sync("WB")
-    finally:
-        loop.call_soon_threadsafe(loop.stop)
-        thread.join(5.0)
     assert [m.wbid for m in store.take("WB")] == [1, 2, 3, 4, 5, 6]
     assert board.through == 6 and stream.gets == 4  # 4, 5, 6, then 7 refused

@@ -17,6 +17,7 @@ from collections.abc import Callable
 
 from openair.client.session import Buffer, ClientConnection, Closed, Reply
 from openair.protocol.errors import ConnectionClosedError, RemoteProtocolError, RequestTimeoutError
+from openair.protocol.framing import coalesce
 from openair.protocol.message import Message
 
 _READ_SIZE = 65536
@@ -148,7 +149,7 @@ class Link:
         if self.conn.in_flight > before:
             future = asyncio.get_running_loop().create_future()
             self._waiting.append(future)
-        await self._write(*_coalesce(parts))
+        await self._write(*coalesce(parts, _JOIN_BELOW))
         return future
 
     async def send_noreply(self, msg: Message) -> Message:
@@ -228,20 +229,3 @@ class Link:
         with contextlib.suppress(Exception):
             await self._writer.wait_closed()
         await asyncio.gather(self._task, return_exceptions=True)
-
-
-def _coalesce(parts: list[Buffer]) -> list[Buffer]:
-    """Join runs of small parts; keep large ones (payloads) as they are, uncopied."""
-    out: list[Buffer] = []
-    small: list[Buffer] = []
-    for part in parts:
-        if memoryview(part).nbytes < _JOIN_BELOW:
-            small.append(part)
-            continue
-        if small:
-            out.append(b"".join(small))
-            small = []
-        out.append(part)
-    if small:
-        out.append(b"".join(small))
-    return out

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import enum
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from lxml import etree
@@ -43,6 +44,7 @@ __all__ = [
     "FrameReader",
     "FrameTag",
     "binary_sizes",
+    "coalesce",
     "encode_frame",
     "encode_frame_parts",
 ]
@@ -136,6 +138,26 @@ def encode_frame_parts(frame: Frame) -> tuple[bytes, ...]:
         return (encode_frame(frame),)
     head = Frame(tag=frame.tag, xml=frame.xml)
     return (encode_frame(head), *frame.chunks)
+
+
+def coalesce(
+    parts: Sequence[bytes | bytearray | memoryview], join_below: int
+) -> list[bytes | bytearray | memoryview]:
+    """Join runs of parts smaller than `join_below` bytes into one; keep larger ones (binary
+    chunks, spec 11.2) as they are, uncopied: the writes for a batch of frames."""
+    out: list[bytes | bytearray | memoryview] = []
+    small: list[bytes | bytearray | memoryview] = []
+    for part in parts:
+        if memoryview(part).nbytes < join_below:
+            small.append(part)
+            continue
+        if small:
+            out.append(b"".join(small))
+            small = []
+        out.append(part)
+    if small:
+        out.append(b"".join(small))
+    return out
 
 
 def binary_sizes(xml: bytes) -> tuple[int, ...]:

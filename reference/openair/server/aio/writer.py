@@ -17,7 +17,7 @@ from collections.abc import Sequence
 
 from openair.protocol.codec import to_frame
 from openair.protocol.errors import ApiMisuseError
-from openair.protocol.framing import FrameTag, encode_frame, encode_frame_parts
+from openair.protocol.framing import FrameTag, coalesce, encode_frame, encode_frame_parts
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
 
@@ -90,17 +90,8 @@ class FrameWriter:
         if len(batch) == 1:
             transport.write(batch[0])
             return
-        small: list[bytes] = []
-        for part in batch:
-            if len(part) < _SEPARATE_CHUNKS:
-                small.append(part)
-                continue
-            if small:
-                transport.write(b"".join(small))
-                small = []
+        for part in coalesce(batch, _SEPARATE_CHUNKS):
             transport.write(part)
-        if small:
-            transport.write(b"".join(small))
 
     @property
     def batched(self) -> bool:

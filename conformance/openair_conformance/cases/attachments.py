@@ -340,8 +340,9 @@ def _has_trigger(wakeup: Message) -> bool:
 async def alarm_trigger(ctx: CaseContext) -> None:
     """Register `maxpriority="0.5"`; post Tick (2.0), then Crit (0.2), then Edge (0.5).
 
-    Catches: a server that ignores maxpriority (Tick, posted first, would wake first), an
-    exclusive bound, and one that accepts an out-of-range value.
+    Catches: a server that ignores maxpriority (Tick, posted first, would wake first; queued
+    behind Crit it comes later, before the barrier's sentinel), an exclusive bound, and one that
+    accepts an out-of-range value.
     """
     reader = await ctx.module("Reader")
     poster = await ctx.module("Poster", bind=False)
@@ -362,6 +363,14 @@ async def alarm_trigger(ctx: CaseContext) -> None:
     edge = await _post(ctx, poster, "Sensor.Edge", priority=0.5)
     second = wakeup_trigger_id(await reader.expect_wakeup(_has_trigger))
     ctx.check(second == edge.id, f"then {second}", expected="Edge: 0.5 is at most 0.5 (OA-TRIG-5)")
+    # A Tick wakeup queued behind the others (Crit and Edge are more urgent, OA-PRIO-1) still
+    # comes before the barrier's sentinel, the least urgent of all.
+    late = [wakeup_trigger_id(m) for m in await reader.barrier()]
+    ctx.check(
+        tick.id not in late,
+        "a wakeup for Tick (2.0) came after the others",
+        expected="no wakeup for Tick at all: 2.0 is less urgent than 0.5 (OA-TRIG-5)",
+    )
 
 
 @case(

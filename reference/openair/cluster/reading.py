@@ -106,7 +106,8 @@ async def committed(
 
     The leader's copy replaces a different one (counted in `replaced`). None when the copy must
     not be taken yet: the leader holds nothing at `seq` (the replica's copy was never committed,
-    or the leader has not applied it yet); the caller reads again from `seq` later. Raises
+    or the leader has not applied it yet; also when it said so and then could not say whether
+    the limit discarded it); the caller reads again from `seq` later. Raises
     LeaderUnreachable when the leader does not answer: reading must not wait for an election
     (the posts of the node would wait behind it), so the caller takes the copy unchecked.
     """

@@ -524,17 +524,19 @@ class ClusterStore:
             return taken
 
     def sync(self, whiteboard: str) -> None:
-        """Wait until the consumer has received the stream's last message (OA-CLU-3)."""
+        """Wait until the consumer has received the stream's last message, or read the rest
+        from the stream's leader when it stalls (OA-CLU-3); TimeoutError when neither can."""
         with self._cond:  # this node's own posts first: every one sent is settled
             self._cond.wait_for(lambda: self._inflight == 0, self.timeout_s)
         info = self._call(self._js.stream_info(stream_name(whiteboard)), self.timeout_s + 1.0)
         last = int(info.state.last_seq or 0)
-        if last and not self._wait_through(whiteboard, last, self.timeout_s):
-            # The consumer stalls (after an election JetStream refused consumers for 15 s):
-            # the rest is read from the stream's leader, as a gap is (OA-CLU-3).
-            with contextlib.suppress(Exception):
-                self._call(self._catch_up(self._boards[whiteboard], last), self.timeout_s + 1.0)
-        if last and not self._wait_through(whiteboard, last, 0.0):
+        if not last or self._wait_through(whiteboard, last, self.timeout_s):
+            return
+        # The consumer stalls (after an election JetStream refused consumers for 15 s): the
+        # rest is read from the stream's leader, as a gap is (OA-CLU-3).
+        with contextlib.suppress(Exception):
+            self._call(self._catch_up(self._boards[whiteboard], last), self.timeout_s + 1.0)
+        if not self._wait_through(whiteboard, last, 0.0):
             through = self._boards[whiteboard].through
             log.warning(
                 "event=cluster_sync_short whiteboard=%s through=%d last=%d",

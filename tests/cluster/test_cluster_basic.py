@@ -151,3 +151,51 @@ def test_a_whiteboard_placed_on_a_node_lives_there_and_works_from_any_node(
     got, leader = run_in(cluster.client_ns, body())
     assert got[:2] == ["from n2", "from n1"]
     assert leader == "n3"  # OA-CLU-6: host="n3" is the placement tag of node n3
+
+
+def test_a_retrieve_reads_the_whiteboards_it_names_up_to_date(cluster: Cluster) -> None:
+    """OA-CLU-3 for a retrieve addressed to one whiteboard that reads another.
+
+    A node caught up only with the addressee (AIRCentral) and answered from what it held of
+    the whiteboard named in `from`: a noreply post and a retrieve right behind it on the same
+    node found nothing (conformance case MSG-008 run alone). Each retrieve here reads WB1
+    through AIRCentral right after a post: on the posting node it must see every post made
+    there and every acknowledged one; on another node every acknowledged one.
+    """
+    tag = "Named.T" + secrets.token_hex(3)
+
+    async def body() -> list[set[str]]:
+        posters = [_client(cluster, i, f"NPoster{i}", bind=False) for i in range(3)]
+        readers = [_client(cluster, i, f"NReader{i}", bind=False) for i in range(3)]
+        for c in posters + readers:
+            await c.connect()
+        seen = []
+        try:
+            for round_ in range(4):
+                for i, poster in enumerate(posters):
+                    noreply = round_ % 2 == 0  # noreply and acknowledged posts in turn
+                    await poster.post("WB1", f"{tag}.P", f"{i}-{round_}", noreply=noreply)
+                    await poster.ping()  # the post is in (one connection's order)
+                    for reader in (readers[i], readers[(i + 1) % 3]):
+                        spec = RetrieveSpec(whiteboard="WB1", pattern=f"{tag}.*", latest=0)
+                        got = await reader.retrieve(spec, to="AIRCentral")
+                        seen.append({m.content for m in got})
+        finally:
+            for c in posters + readers:
+                await c.close()
+        return seen
+
+    seen = iter(run_in(cluster.client_ns, body()))
+    acknowledged: set[str] = set()
+    here: dict[int, set[str]] = {i: set() for i in range(3)}
+    for round_ in range(4):
+        for i in range(3):
+            posted = f"{i}-{round_}"
+            here[i].add(posted)
+            if round_ % 2:
+                acknowledged.add(posted)
+            own, other = next(seen), next(seen)
+            missing = (here[i] | acknowledged) - own
+            assert not missing, f"node {i} after {posted}: {sorted(missing)} not read"
+            missing = acknowledged - other
+            assert not missing, f"node {(i + 1) % 3} after {posted}: {sorted(missing)} not read"

@@ -10,8 +10,9 @@ acknowledgement, which JetStream gives once the message is stored on a majority 
 Every node reads every whiteboard's stream in order with an ordered push consumer and buffers
 the copies; the server adopts them into its own whiteboards (its read model for retrieve and
 the wakeups of the modules connected to it, OA-CLU-4). The NATS client runs on a thread of its
-own with its own event loop; the server's loop waits for it (`publish`, `sync`) for at most
-`timeout_s`, so a node cut off from the cluster answers STORE_FAILED instead of hanging.
+own with its own event loop. A post's acknowledgement waits for it without holding up the
+server's loop (`publish_soon`); a retrieve waits (`sync`) for at most `timeout_s`, so a node
+cut off from the cluster answers STORE_FAILED instead of hanging.
 """
 
 from __future__ import annotations
@@ -20,16 +21,15 @@ import asyncio
 import concurrent.futures
 import contextlib
 import itertools
-import json
 import logging
 import secrets
 import threading
-import time
 from collections import deque
 from collections.abc import Callable, Coroutine
 from functools import partial
 from typing import TYPE_CHECKING, Any, TypeVar
 
+from openair.cluster.liveness import Liveness
 from openair.cluster.reading import CHECK_FIRST, LeaderUnreachable, committed, fill
 from openair.cluster.reading import ID_HEADER as _ID
 from openair.cluster.reading import Board as _Board
@@ -53,9 +53,6 @@ __all__ = ["ClusterSpec", "ClusterStore", "decode_copy", "encode_copy", "parse_s
 
 log = logging.getLogger("openair.cluster")
 _T = TypeVar("_T")
-_NODES = "openair.node."  # heartbeats: the node's name in hex, its bound modules as JSON
-_BEAT_S = 0.5
-_DEAD_S = 3.0  # a node not heard for this long is dead (OA-CLU-7)
 _WATCH_S = 0.5  # how often a node compares what it read with each stream's end
 _HEARTBEAT_S = 1.0  # the ordered consumers' idle heartbeat
 
@@ -76,13 +73,11 @@ class ClusterStore:
         self._js: Any = None
         self._notify: Callable[[], None] | None = None
         self._scheduled = False
-        self._announced: tuple[str, ...] = ()
-        self._peers: dict[str, tuple[float, tuple[str, ...]]] = {}  # node -> (heard, modules)
-        self._lost: list[str] = []
-        self._retry: list[str] = []  # Lost notices that failed, taken again at the next beat
+        self._liveness = Liveness(spec.node, self._spawn, lambda: self._notify)
         self._outbox: deque[tuple[str, bytes, str, concurrent.futures.Future[int] | None]] = deque()
         self._ids = map(f"{secrets.token_hex(6)}-{{}}".format, itertools.count(1))
-        self._echoes: dict[str, int] = {}  # own copies' ids -> the sequence they came back at
+        # own copies' ids -> the sequence they come back at (`publish_soon` waits for it)
+        self._echoes: dict[str, concurrent.futures.Future[int]] = {}
         self._inflight = 0  # publishes queued or sent, not settled yet
         self._flushing = False
         self._tasks: set[asyncio.Task[None]] = set()
@@ -137,8 +132,7 @@ class ClusterStore:
             board = self._boards[wb.name] = _Board(wb.name)
             await self._subscribe(board, 1)
         self._spawn(self._watch())
-        await self._nc.subscribe(_NODES + ">", cb=self._heard)
-        self._spawn(self._heartbeat())
+        await self._liveness.start(self._nc)
 
     async def _subscribe(self, board: _Board, start: int) -> None:
         """Read the whiteboard's stream in order from sequence `start` (an ordered consumer)."""
@@ -187,69 +181,19 @@ class ClusterStore:
                     continue
                 board.stalled_at = through if behind else -1
 
-    # -- liveness (OA-CLU-7) -------------------------------------------------------------------
+    # -- liveness (OA-CLU-7): liveness.py ------------------------------------------------------
 
     def announce(self, modules: tuple[str, ...]) -> None:
-        """Say which modules are bound to this node (called by the server, any thread).
-
-        A change is published at once, not only with the next heartbeat.
-        """
-        if modules == self._announced:
-            return
-        self._announced = modules
-        loop = self._loop
-        if loop is not None and self._nc is not None:
-            payload = json.dumps(list(modules)).encode()
-            loop.call_soon_threadsafe(self._spawn, self._publish_beat(payload))
-
-    async def _publish_beat(self, payload: bytes) -> None:
-        with contextlib.suppress(Exception):
-            await self._nc.publish(_NODES + self.spec.node.encode().hex(), payload)
+        """Say which modules are bound to this node (called by the server, any thread)."""
+        self._liveness.announce(modules)
 
     def take_lost(self) -> list[str]:
         """The modules of nodes found dead since the last call, for this node to post Lost."""
-        with self._cond:
-            lost, self._lost = self._lost, []
-        return lost
+        return self._liveness.take_lost()
 
     def lost_again(self, modules: list[str]) -> None:
-        if modules:
-            with self._cond:
-                self._retry.extend(modules)
-
-    async def _heartbeat(self) -> None:
-        """Every `_BEAT_S`, tell the other nodes this one lives and which modules it holds;
-        declare dead a node not heard for `_DEAD_S` (its modules' Lost is posted once, by the
-        live node whose name sorts first)."""
-        while True:
-            await self._publish_beat(json.dumps(list(self._announced)).encode())
-            with self._cond:
-                retry, self._retry = self._retry, []
-                self._lost.extend(retry)
-            if retry and self._notify is not None:
-                self._notify()
-            now = time.monotonic()
-            dead = [n for n, (seen, _) in self._peers.items() if now - seen > _DEAD_S]
-            alive = sorted([self.spec.node, *(n for n in self._peers if n not in dead)])
-            for node in dead:
-                _, modules = self._peers.pop(node)
-                log.warning("event=cluster_node_dead node=%s modules=%d", node, len(modules))
-                if alive[0] == self.spec.node and modules:
-                    with self._cond:
-                        self._lost.extend(modules)
-                    if self._notify is not None:
-                        self._notify()
-            await asyncio.sleep(_BEAT_S)
-
-    async def _heard(self, msg: Any) -> None:
-        node = bytes.fromhex(msg.subject[len(_NODES) :]).decode(errors="replace")
-        if node == self.spec.node:
-            return
-        try:
-            modules = tuple(str(m) for m in json.loads(msg.data))
-        except ValueError:
-            return
-        self._peers[node] = (time.monotonic(), modules)
+        """Lost notices that could not be stored: taken again at the next beat."""
+        self._liveness.lost_again(modules)
 
     def _spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.get_running_loop().create_task(coro)
@@ -317,8 +261,9 @@ class ClusterStore:
         """Hand one copy over: the next after `through` (client thread)."""
         copy = decode_copy(data, seq)
         with self._cond:
-            if ident is not None and ident in self._echoes:
-                self._echoes[ident] = seq  # this node's own post: `publish` waits for it
+            echo = self._echoes.get(ident) if ident is not None else None
+            if echo is not None and not echo.done():
+                echo.set_result(seq)  # this node's own post: `publish_soon` waits for it
             if copy is None:
                 board.skipped += 1
             else:
@@ -368,43 +313,69 @@ class ClusterStore:
     # -- SequencedStore --------------------------------------------------------------------------
 
     def publish(self, whiteboard: str, msg: Message) -> int:
-        """Publish one copy; return its wbid: the stream sequence it comes back under.
+        """Publish one copy and wait for `publish_soon`'s answer: the wbid it was stored under."""
+        return self.publish_soon(whiteboard, msg).result(2 * self.timeout_s + 2.0)
+
+    def publish_soon(self, whiteboard: str, msg: Message) -> concurrent.futures.Future[int]:
+        """Publish one copy; the future gets its wbid: the stream sequence it comes back under.
 
         The copy is the whiteboard's at the sequence the consumer reads it at, which every
         node reads (OA-CLU-1); by then every earlier copy is here to be adopted first. An
         acknowledgement's sequence was seen to name another node's post after a partition
         healed (the store elected leaders again); adopting the own copy there dropped that
         post. When the copy does not come back in time, the acknowledged sequence is used only
-        if the stream holds this copy there; otherwise the post fails (STORE_FAILED: it is
-        stored, and is adopted when it comes back, OA-CLU-2).
+        if the stream holds this copy there; otherwise the future fails (STORE_FAILED: it is
+        stored, and is adopted when it comes back, OA-CLU-2). Nothing waits on the server's
+        loop: a node's modules are answered while another module's post is being replicated.
         """
-        done: concurrent.futures.Future[int] = concurrent.futures.Future()
-        ident = self._enqueue(whiteboard, msg, done, echo=True)
+        loop = self._loop
+        if loop is None:
+            raise RuntimeError("the cluster store is closed")
+        acked: concurrent.futures.Future[int] = concurrent.futures.Future()
+        echo: concurrent.futures.Future[int] = concurrent.futures.Future()
+        ident = self._enqueue(whiteboard, msg, acked, echo=echo)
+        return asyncio.run_coroutine_threadsafe(self._confirm(whiteboard, ident, acked, echo), loop)
+
+    async def _confirm(
+        self,
+        whiteboard: str,
+        ident: str,
+        acked: concurrent.futures.Future[int],
+        echo: concurrent.futures.Future[int],
+    ) -> int:
+        """The wbid of one published copy, once acknowledged and back (client thread)."""
         try:
-            acked = done.result(self.timeout_s + 1.0)
+            sequence = await asyncio.wrap_future(acked)
             self.published += 1
-            with self._cond:
-                back = self._cond.wait_for(lambda: self._echoes[ident] > 0, self.timeout_s)
-                seq = self._echoes[ident] if back else acked
+            try:
+                seq = await asyncio.wait_for(asyncio.wrap_future(echo), self.timeout_s)
+            except TimeoutError:
+                self.late += 1
+                log.warning("event=cluster_late whiteboard=%s wbid=%d", whiteboard, sequence)
+                if not await self._holds(whiteboard, sequence, ident):  # OA-CLU-2: maybe later
+                    raise TimeoutError(
+                        f"{whiteboard}: the post did not come back from the store"
+                    ) from None
+                return sequence
         finally:
             with self._cond:
                 self._echoes.pop(ident, None)
-        if not back:
-            self.late += 1
-            log.warning("event=cluster_late whiteboard=%s wbid=%d", whiteboard, seq)
-            if not self._holds(whiteboard, acked, ident):  # OA-CLU-2: it may appear later
-                raise TimeoutError(f"{whiteboard}: the post did not come back from the store")
-        elif seq != acked:
+        if seq != sequence:
             self.misnumbered += 1
             log.warning(
-                "event=cluster_misnumbered whiteboard=%s acked=%d stored=%d", whiteboard, acked, seq
+                "event=cluster_misnumbered whiteboard=%s acked=%d stored=%d",
+                whiteboard,
+                sequence,
+                seq,
             )
         return seq
 
-    def _holds(self, whiteboard: str, seq: int, ident: str) -> bool:
+    async def _holds(self, whiteboard: str, seq: int, ident: str) -> bool:
         """Whether the stream holds this node's copy `ident` at `seq` (asked of its leader)."""
         try:
-            raw = self._call(self._js.get_msg(stream_name(whiteboard), seq), self.timeout_s)
+            raw = await asyncio.wait_for(
+                self._js.get_msg(stream_name(whiteboard), seq), self.timeout_s
+            )
         except Exception:
             return False
         return bool((raw.headers or {}).get(_ID) == ident)
@@ -423,12 +394,11 @@ class ClusterStore:
         msg: Message,
         done: concurrent.futures.Future[int] | None,
         *,
-        echo: bool = False,
+        echo: concurrent.futures.Future[int] | None = None,
     ) -> str:
         """Queue a publish; one task on the client's loop sends them in order (one wbid order).
 
-        Return the copy's id (its `Nats-Msg-Id`); with `echo`, the sequence it comes back at
-        is kept for `publish`.
+        Return the copy's id (its `Nats-Msg-Id`); `echo` gets the sequence it comes back at.
         """
         loop = self._loop
         if loop is None:
@@ -436,8 +406,8 @@ class ClusterStore:
         ident = next(self._ids)
         item = (whiteboard, encode_copy(derived(msg, wbid=None)), ident, done)
         with self._cond:
-            if echo:
-                self._echoes[ident] = 0
+            if echo is not None:
+                self._echoes[ident] = echo
             self._outbox.append(item)
             self._inflight += 1
             wake = not self._flushing

@@ -70,6 +70,7 @@ _TICK_S = 0.1  # OA-XSTREAM-7: Idle alarms are checked at least this often
 _BINDS = frozenset({"BIND", "BIND_NOLISTEN"})
 _WILDCARD_HOSTS = frozenset({"", "0.0.0.0", "::"})
 _STAGE_S = 2.0  # the longest one shutdown stage after the grace period may take
+_STORE_WAIT_S = 20.0  # an injected post to a cluster whiteboard: its store's answer (spec 17)
 
 
 #: The entry point group of the applications a server attaches when it starts (pyproject.toml:
@@ -239,6 +240,12 @@ class Server:
         )
         if outcome.later is not None:  # the caller reads the reply now
             outcome = replace(outcome, replies=(outcome.later()[0],), later=None)
+        if outcome.stored is not None:  # the caller reads the reply now (the loop waits)
+            pending = outcome.stored
+            with contextlib.suppress(Exception):
+                pending.stored.result(_STORE_WAIT_S)
+            reply = pending.reply(pending.stored, time.time_ns())
+            outcome = replace(outcome, replies=(reply,), stored=None)
         self._apply(outcome, conn_id)
         return outcome
 
@@ -434,6 +441,7 @@ class Server:
         self.router.status_extra = self._status_counters
         self.router.queued_bytes = self.dispatcher.queued_bytes  # OA-LIM-14
         self.router.defer_large_replies = True  # written on a worker thread (issue #19)
+        self.router.defer_store_replies = True  # a cluster's acknowledgements (spec 17)
         self._apply(self.router.start(time.time_ns()), 0)  # OA-SESS-31: System.Ready
         self.internal = start_internal(self)  # OA-CONF-8; ConfigError refuses the start
         if "typed-streams" in self.extensions:

@@ -10,11 +10,12 @@ from __future__ import annotations
 import itertools
 import os
 import random
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from datetime import UTC, datetime
+from typing import TYPE_CHECKING
 
 from openair.protocol.content import Dictionary, Phase
-from openair.protocol.errors import OpenAIRError
+from openair.protocol.errors import OpenAIRError, StoreFailedError
 from openair.protocol.message import Message
 from openair.protocol.objects import (
     Capabilities,
@@ -25,6 +26,9 @@ from openair.protocol.objects import (
 from openair.protocol.registration import encode_phase
 from openair.protocol.times import AirTime
 from openair.server.core.config import ServerConfig, ServerLimits
+
+if TYPE_CHECKING:
+    from concurrent.futures import Future
 
 __all__ = [
     "KNOWN_EXTENSIONS",
@@ -125,6 +129,21 @@ def error_reply(
     """Build the failure reply for `err`: `type_` or the table's, `NAME: detail` (OA-ERR-2/6)."""
     type_ = type_ or err.reply or "RECEIVE_ERROR"
     return reply(req, type_, sender=sender, now_ns=now_ns, content=err.wire_text())
+
+
+def reply_when_stored(req: Message, sender: str) -> Callable[[Future[int], int], Message]:
+    """The reply to a post once a cluster's store has it, or could not (OA-WB-3, OA-CLU-2):
+    RECEIVE_ACCEPT, else STORE_FAILED (not stored, or not known to be)."""
+
+    def answer(stored: Future[int], now_ns: int) -> Message:
+        try:
+            stored.result(0)
+        except BaseException as exc:
+            err = StoreFailedError(f"{sender}: {exc or type(exc).__name__}")
+            return error_reply(req, err, sender=sender, now_ns=now_ns)
+        return reply(req, "RECEIVE_ACCEPT", sender=sender, now_ns=now_ns)
+
+    return answer
 
 
 def unknown_command(req: Message, *, sender: str, now_ns: int) -> Message:

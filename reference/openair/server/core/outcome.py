@@ -8,12 +8,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from openair.protocol.message import Message
 from openair.server.core.sessions import ConnId
 from openair.server.core.streamservice import PendingWait, SamplePush, WaitReply
 
-__all__ = ["Delivery", "Handler", "Outcome"]
+if TYPE_CHECKING:
+    import concurrent.futures
+
+__all__ = ["Delivery", "Handler", "Outcome", "StoredReply"]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -30,6 +34,15 @@ class Delivery:
     expires_ns: int = 0  # OA-DELIV-14: dropped when still unsent at this time (0: never)
     # A wakeup's stored trigger message, for internal modules (OA-CONF-8: no XML to parse).
     trigger: Message | None = field(default=None, compare=False, repr=False)
+
+
+@dataclass(frozen=True, slots=True)
+class StoredReply:
+    """A post's reply that waits for a cluster's store (OA-CLU-2): `reply(stored, now_ns)`
+    builds it, on the adapter's loop, once `stored` (the wbid, or the failure) is done."""
+
+    stored: concurrent.futures.Future[int]
+    reply: Callable[[concurrent.futures.Future[int], int], Message]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -55,6 +68,9 @@ class Outcome:
     # A reply too large to write on the event loop (issue #19, item 6): instead of `replies`,
     # a function that builds it and its frame on any thread. Only with `defer_large_replies`.
     later: Callable[[], tuple[Message, bytes | None]] | None = None
+    # A post to a cluster's whiteboard (spec 17): instead of `replies`, the acknowledgement
+    # once the store has it (OA-CLU-2). Only with `defer_store_replies`.
+    stored: StoredReply | None = None
 
 
 #: A component command's handler: (connection, request, received_ns, now_ns) -> Outcome.

@@ -8,7 +8,7 @@ OA-RET-15).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 from openair.protocol.attachments import chunks_of
@@ -172,11 +172,14 @@ def prepare_retrieve(
     now_ns: int,
     max_xml: int,
     max_binary: int = 64 * 1024 * 1024,
+    before_read: Callable[[Whiteboard], None] | None = None,
 ) -> PreparedRetrieve:
     """Read an AIR.Retrieve / AIR.Retrieves (spec 9.1–9.4) and take what its retrieves scan.
 
     Cheap on the loop: the request is parsed and each whiteboard's copies are snapshot; the
-    scan and the writing happen in `build`, wherever it runs.
+    scan and the writing happen in `build`, wherever it runs. `before_read` is called once
+    for every whiteboard the retrieves read, before its snapshot (a cluster node catches up
+    with the copies other nodes stored, OA-CLU-3).
     """
     prepared = PreparedRetrieve(
         request=msg, sender=addressee.name, now_ns=now_ns, max_xml=max_xml, max_binary=max_binary
@@ -189,6 +192,8 @@ def prepare_retrieve(
             if board is None:
                 raise WhiteboardUnknownError(spec.whiteboard)  # OA-RET-11
             if board.name not in snapshots:
+                if before_read is not None:
+                    before_read(board)
                 snapshots[board.name] = board.snapshot()
             scans.append((spec, snapshots[board.name]))
     except OpenAIRError as err:

@@ -46,7 +46,7 @@ from openair.server.core.config import (
     ServerLimits,
 )
 from openair.server.core.contexts import PHASE_CHANGE, Contexts
-from openair.server.core.outcome import Delivery, Outcome
+from openair.server.core.outcome import Delivery, Outcome, StoredReply
 from openair.server.core.queues import item_bytes
 from openair.server.core.retrieve import RETRIEVE, RETRIEVES, prepare_retrieve, registration_results
 from openair.server.core.router_commands import ComponentCommands
@@ -114,6 +114,8 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         self.observer: Callable[[str, Message, tuple[Delivery, ...]], None] | None = None
         # The adapter writes large replies on a worker thread (Outcome.later, issue #19).
         self.defer_large_replies = False
+        # The adapter waits for a cluster's store without blocking (Outcome.stored, spec 17).
+        self.defer_store_replies = False
         self.address = address
         self.port = port
         self.limits = limits
@@ -287,7 +289,12 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         if kind == "AIR.Subscribe":
             return self._subscribe(board, msg, now_ns)
         if kind in (RETRIEVE, RETRIEVES):
-            caught_up = self._adopted(board, board.sync(), now_ns)  # OA-CLU-3
+            caught_up: tuple[Delivery, ...] = ()
+
+            def synced(read: Whiteboard) -> None:  # OA-CLU-3: each whiteboard it reads
+                nonlocal caught_up
+                caught_up += self._adopted(read, read.sync(), now_ns)
+
             prepared = prepare_retrieve(
                 msg,
                 board,
@@ -295,6 +302,7 @@ class Router(ComponentCommands, StreamRouting, Registrations):
                 now_ns=now_ns,
                 max_xml=self.limits.max_frame_xml,
                 max_binary=self.limits.max_frame_binary,  # OA-RET-15, OA-RET-19
+                before_read=synced,
             )
             if self.defer_large_replies and prepared.large:  # written off the loop (issue #19)
                 return Outcome(later=prepared.build, deliveries=caught_up)
@@ -321,6 +329,9 @@ class Router(ComponentCommands, StreamRouting, Registrations):
             if msg.noreply and self._noreply and board.sequenced:
                 board.post_later(msg, received_ns)  # OA-CLU-5: routed when it comes back
                 return Outcome()
+            if self.defer_store_replies and board.sequenced:  # OA-CLU-2: routed when it is back
+                pending = board.post_soon(msg, received_ns)
+                return Outcome(stored=StoredReply(pending, cmd.reply_when_stored(msg, board.name)))
             stored = board.store_post(msg, received_ns)  # OA-TIME-3, OA-WB-4, OA-WB-5
         except StoreFailedError as err:  # OA-WB-3: not stored, so not acknowledged
             return Outcome(replies=(self._error(msg, err, board.name, now_ns),))

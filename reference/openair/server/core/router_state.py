@@ -65,6 +65,7 @@ class RouterState:
         queued_bytes: Callable[[], int] | None
         observer: Callable[[str, Message, tuple[Delivery, ...]], None] | None
         defer_large_replies: bool
+        defer_store_replies: bool
         address: str
         port: int
         limits: ServerLimits

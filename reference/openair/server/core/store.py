@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 from openair.protocol.message import Message
 
 if TYPE_CHECKING:
+    import concurrent.futures
+
     from openair.server.core.config import ServerConfig
 
 __all__ = [
@@ -63,6 +65,11 @@ class SequencedStore(HistoryStore, Protocol):
 
     def publish(self, whiteboard: str, msg: Message) -> int:
         """Store one copy (its wbid is ignored) and return the wbid it was stored under."""
+        ...
+
+    def publish_soon(self, whiteboard: str, msg: Message) -> concurrent.futures.Future[int]:
+        """Store one copy without blocking: it comes back through `take`, and the future gets
+        the wbid once it is stored (durable and replicated) and back, or the failure."""
         ...
 
     def publish_later(self, whiteboard: str, msg: Message) -> None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import contextlib
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from openair.protocol.content import ContentMatch, RetrieveSpec
 from openair.protocol.contentmatch import canonical_xml_text, content_glob, text_of
@@ -24,6 +24,9 @@ from openair.server.core.commands import ms_time
 from openair.server.core.config import DEFAULT_MAXCOUNT, DEFAULT_WB_PRIORITY, WhiteboardConfig
 from openair.server.core.queues import item_bytes
 from openair.server.core.store import HistoryStore, SequencedStore
+
+if TYPE_CHECKING:
+    import concurrent.futures
 
 __all__ = [
     "Whiteboard",
@@ -190,17 +193,33 @@ class Whiteboard:
         """Whether a cluster's store numbers the posts (spec 17)."""
         return self._sequenced is not None
 
+    def post_soon(self, msg: Message, received_ns: int) -> concurrent.futures.Future[int]:
+        """Send a post to the cluster's store; the future says when it is stored (OA-CLU-2).
+
+        It is adopted, and its wakeups decided, when it comes back from the store in order,
+        as a noreply post is; its acknowledgement waits for the future, the server's loop
+        does not.
+        """
+        assert self._sequenced is not None
+        try:
+            return self._sequenced.publish_soon(self.name, self._unnumbered(msg, received_ns))
+        except Exception as exc:
+            raise StoreFailedError(f"{self.name}: {exc}") from exc
+
     def post_later(self, msg: Message, received_ns: int) -> None:
         """Send a noreply post to the cluster's store without waiting (OA-CLU-5).
 
         It is adopted, and its wakeups decided, when it comes back from the store in order.
         """
         assert self._sequenced is not None
-        copy = derive(msg, stored=self.name, received=ms_time(self.stamp(received_ns)))
         try:
-            self._sequenced.publish_later(self.name, copy)
+            self._sequenced.publish_later(self.name, self._unnumbered(msg, received_ns))
         except Exception as exc:
             raise StoreFailedError(f"{self.name}: {exc}") from exc
+
+    def _unnumbered(self, msg: Message, received_ns: int) -> Message:
+        """The stored copy of a post before the cluster's store numbers it (OA-WB-4)."""
+        return derive(msg, stored=self.name, received=ms_time(self.stamp(received_ns)))
 
     def adopt(self) -> list[Message]:
         """Adopt the copies other servers stored since the last call (OA-CLU-4); return them."""

@@ -199,3 +199,40 @@ def test_a_retrieve_reads_the_whiteboards_it_names_up_to_date(cluster: Cluster) 
             assert not missing, f"node {i} after {posted}: {sorted(missing)} not read"
             missing = acknowledged - other
             assert not missing, f"node {(i + 1) % 3} after {posted}: {sorted(missing)} not read"
+
+
+def test_a_message_to_a_module_on_another_node_reaches_it(cluster: Cluster) -> None:
+    """OA-CLU-8: a message addressed to a module bound to another node is delivered there,
+    unchanged, and acknowledged RECEIVE_ACCEPT by the module's name; a name bound nowhere
+    gets FORWARD_FAILED from every node (OA-SESS-21)."""
+    tag = "Direct.T" + secrets.token_hex(3)
+    target = "Target" + secrets.token_hex(3)
+
+    async def body() -> tuple[list[str], list[tuple[str, str, str, float | None]], list[str]]:
+        receiver = _client(cluster, 2, target)
+        senders = [_client(cluster, i, f"DSender{i}", bind=False) for i in range(3)]
+        await receiver.connect()
+        for s in senders:
+            await s.connect()
+        acks, got, refused = [], [], []
+        try:
+            # At once: the heartbeats (0.5 s apart) may not name the new binding yet.
+            for i, sender in enumerate(senders):
+                msg = sender.message(target, f"{tag}.M", f"from {i}", priority=2.5)
+                reply = await sender.request(msg)
+                acks.append(f"{reply.type} {reply.sender}")
+                event = await receiver.next_message(timeout=10)
+                assert event is not None, f"nothing delivered for sender {i}"
+                m = event.message
+                got.append((m.type, m.content, m.sender, m.priority))
+                nowhere = sender.message(target + "X", f"{tag}.N", "lost")
+                refused.append((await sender.request(nowhere)).type)
+        finally:
+            for m in (receiver, *senders):
+                await m.close()
+        return acks, got, refused
+
+    acks, got, refused = run_in(cluster.client_ns, body())
+    assert acks == [f"RECEIVE_ACCEPT {target}"] * 3
+    assert got == [(f"{tag}.M", f"from {i}", f"DSender{i}", 2.5) for i in range(3)]
+    assert refused == ["FORWARD_FAILED"] * 3

@@ -44,6 +44,7 @@ class Liveness:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._announced: tuple[str, ...] = ()
         self._peers: dict[str, tuple[float, tuple[str, ...]]] = {}  # node -> (heard, modules)
+        self._holders: dict[str, str] = {}  # module -> the other node it is bound to
         self._lost: list[str] = []
         self._retry: list[str] = []  # Lost notices that failed, taken again at the next beat
 
@@ -66,6 +67,14 @@ class Liveness:
         if loop is not None and self._nc is not None:
             payload = json.dumps(list(modules)).encode()
             loop.call_soon_threadsafe(self._spawn, self._publish_beat(payload))
+
+    def holder(self, module: str) -> str | None:
+        """The other live node `module` is bound to, as last heard (None: none)."""
+        return self._holders.get(module)
+
+    def others(self) -> list[str]:
+        """The other nodes heard from and not declared dead, by name."""
+        return sorted(self._peers)
 
     def take_lost(self) -> list[str]:
         """The modules of nodes found dead since the last call, for this node to post Lost."""
@@ -98,6 +107,7 @@ class Liveness:
             alive = sorted([self.node, *(n for n in self._peers if n not in dead)])
             for node in dead:
                 _, modules = self._peers.pop(node)
+                self._index()
                 log.warning("event=cluster_node_dead node=%s modules=%d", node, len(modules))
                 if alive[0] == self.node and modules:
                     with self._lock:
@@ -118,4 +128,12 @@ class Liveness:
             modules = tuple(str(m) for m in json.loads(msg.data))
         except ValueError:
             return
+        known = self._peers.get(node)
         self._peers[node] = (time.monotonic(), modules)
+        if known is None or known[1] != modules:
+            self._index()
+
+    def _index(self) -> None:
+        # A name bound on several nodes: the node whose name sorts first (spec 17.2).
+        peers = sorted(self._peers.items(), reverse=True)
+        self._holders = {m: node for node, (_, ms) in peers for m in ms}

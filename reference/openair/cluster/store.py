@@ -29,6 +29,7 @@ from collections.abc import Callable, Coroutine
 from functools import partial
 from typing import TYPE_CHECKING, Any, TypeVar
 
+from openair.cluster.forwarding import Accept, Forwarding
 from openair.cluster.liveness import Liveness
 from openair.cluster.reading import CHECK_FIRST, LeaderUnreachable, committed, fill
 from openair.cluster.reading import ID_HEADER as _ID
@@ -74,6 +75,7 @@ class ClusterStore:
         self._notify: Callable[[], None] | None = None
         self._scheduled = False
         self._liveness = Liveness(spec.node, self._spawn, lambda: self._notify)
+        self._forwarding = Forwarding(spec.node, spec.timeout_s)
         self._outbox: deque[tuple[str, bytes, str, concurrent.futures.Future[int] | None]] = deque()
         self._ids = map(f"{secrets.token_hex(6)}-{{}}".format, itertools.count(1))
         # own copies' ids -> the sequence they come back at (`publish_soon` waits for it)
@@ -133,6 +135,7 @@ class ClusterStore:
             await self._subscribe(board, 1)
         self._spawn(self._watch())
         await self._liveness.start(self._nc)
+        await self._forwarding.start(self._nc)
 
     async def _subscribe(self, board: _Board, start: int) -> None:
         """Read the whiteboard's stream in order from sequence `start` (an ordered consumer)."""
@@ -194,6 +197,24 @@ class ClusterStore:
     def lost_again(self, modules: list[str]) -> None:
         """Lost notices that could not be stored: taken again at the next beat."""
         self._liveness.lost_again(modules)
+
+    # -- messages to modules on other nodes (OA-CLU-8): forwarding.py --------------------------
+
+    def accept_forwarded(self, accept: Accept) -> None:
+        """How the server queues a message another node forwards to one of its modules."""
+        self._forwarding.accept = accept
+
+    def forward_soon(self, msg: Message) -> concurrent.futures.Future[int] | None:
+        """Send a message to the node its addressee is bound to: the holder the heartbeats
+        name first, then the other live nodes; None when there is no other node to ask."""
+        holder = self._liveness.holder(msg.to)
+        nodes = [n for n in self._liveness.others() if n != holder]
+        if holder is not None:
+            nodes.insert(0, holder)
+        loop = self._loop
+        if not nodes or loop is None:
+            return None
+        return asyncio.run_coroutine_threadsafe(self._forwarding.send(nodes, msg), loop)
 
     def _spawn(self, coro: Coroutine[Any, Any, None]) -> None:
         task = asyncio.get_running_loop().create_task(coro)
@@ -552,4 +573,6 @@ class ClusterStore:
             "skipped": skipped,
             "filled": filled,
             "replaced": replaced,
+            "forwarded": self._forwarding.sent,
+            "forwarded_here": self._forwarding.received,
         }

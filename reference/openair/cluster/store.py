@@ -335,7 +335,8 @@ class ClusterStore:
 
     def publish(self, whiteboard: str, msg: Message) -> int:
         """Publish one copy and wait for `publish_soon`'s answer: the wbid it was stored under."""
-        return self.publish_soon(whiteboard, msg).result(2 * self.timeout_s + 2.0)
+        # `_confirm` takes at most three timeouts: the acknowledgement, the copy, the leader.
+        return self.publish_soon(whiteboard, msg).result(3 * self.timeout_s + 2.0)
 
     def publish_soon(self, whiteboard: str, msg: Message) -> concurrent.futures.Future[int]:
         """Publish one copy; the future gets its wbid: the stream sequence it comes back under.

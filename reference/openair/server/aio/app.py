@@ -242,12 +242,12 @@ class Server:
         )
         if outcome.later is not None:  # the caller reads the reply now
             outcome = replace(outcome, replies=(outcome.later()[0],), later=None)
-        if outcome.stored is not None:  # the caller reads the reply now (the loop waits)
-            pending = outcome.stored
+        if outcome.awaited is not None:  # the caller reads the reply now (the loop waits)
+            pending = outcome.awaited
             with contextlib.suppress(Exception):
-                pending.stored.result(_STORE_WAIT_S)
-            reply = pending.reply(pending.stored, time.time_ns())
-            outcome = replace(outcome, replies=(reply,), stored=None)
+                pending.done.result(_STORE_WAIT_S)
+            reply = pending.reply(pending.done, time.time_ns())
+            outcome = replace(outcome, replies=(reply,), awaited=None)
         self._apply(outcome, conn_id)
         return outcome
 

@@ -30,7 +30,7 @@ from openair.protocol.message import Message
 from openair.server.aio.budgets import off_loop_executor
 from openair.server.aio.pairing import salvage
 from openair.server.aio.writer import error_reply
-from openair.server.core.outcome import StoredReply
+from openair.server.core.outcome import AwaitedReply
 from openair.server.core.router import Outcome
 
 if TYPE_CHECKING:
@@ -104,8 +104,8 @@ class Responder:
             conn.send(reply)
         if outcome.later is not None:
             self._reply_off_loop(outcome.later)  # issue #19: a large reply
-        if outcome.stored is not None:
-            self._reply_when_stored(outcome.stored)  # OA-CLU-2: a cluster's store has it
+        if outcome.awaited is not None:
+            self._reply_when_done(outcome.awaited)  # spec 17: a cluster's store or node
         if outcome.wait is not None:
             self.waiting = outcome.wait.ticket  # OA-STREAM-7: the reply comes later
         if outcome.close_this:
@@ -180,19 +180,19 @@ class Responder:
         future = asyncio.get_running_loop().run_in_executor(off_loop_executor(), later)
         future.add_done_callback(self._replied)
 
-    def _reply_when_stored(self, pending: StoredReply) -> None:
-        """Acknowledge a post once a cluster's store has it; later requests wait (OA-SESS-2).
+    def _reply_when_done(self, pending: AwaitedReply) -> None:
+        """Answer once a cluster's store or another node did; later requests wait (OA-SESS-2).
 
         The loop goes on serving every other connection meanwhile (spec 17).
         """
         self.decoding = 1
-        asyncio.wrap_future(pending.stored).add_done_callback(lambda _: self._stored(pending))
+        asyncio.wrap_future(pending.done).add_done_callback(lambda _: self._done(pending))
 
-    def _stored(self, pending: StoredReply) -> None:
+    def _done(self, pending: AwaitedReply) -> None:
         self.decoding = 0
         if self.conn.is_closing:
             return
-        self.conn.send(pending.reply(pending.stored, time.time_ns()))
+        self.conn.send(pending.reply(pending.done, time.time_ns()))
         self._resume()
 
     def _replied(self, done: asyncio.Future[tuple[Message, bytes | None]]) -> None:

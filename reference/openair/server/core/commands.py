@@ -135,27 +135,30 @@ def reply_when_stored(req: Message, sender: str) -> Callable[[Future[int], int],
     """The reply to a post once a cluster's store has it, or could not (OA-WB-3, OA-CLU-2):
     RECEIVE_ACCEPT, else STORE_FAILED (not stored, or not known to be)."""
 
-    def answer(stored: Future[int], now_ns: int) -> Message:
-        try:
-            stored.result(0)
-        except BaseException as exc:
-            err = StoreFailedError(f"{sender}: {exc or type(exc).__name__}")
-            return error_reply(req, err, sender=sender, now_ns=now_ns)
-        return reply(req, "RECEIVE_ACCEPT", sender=sender, now_ns=now_ns)
+    def failed(exc: BaseException, now_ns: int) -> Message:
+        err = StoreFailedError(f"{sender}: {exc or type(exc).__name__}")
+        return error_reply(req, err, sender=sender, now_ns=now_ns)
 
-    return answer
+    return _accept_when_done(req, sender, failed)
 
 
 def reply_when_forwarded(req: Message) -> Callable[[Future[int], int], Message]:
     """The reply to a message sent on to another cluster node's module (OA-CLU-8):
     RECEIVE_ACCEPT from the module once that node queued it, else FORWARD_FAILED."""
+    return _accept_when_done(req, req.to, lambda _, now_ns: forward_failed(req, now_ns=now_ns))
 
-    def answer(sent: Future[int], now_ns: int) -> Message:
+
+def _accept_when_done(
+    req: Message, sender: str, failed: Callable[[BaseException, int], Message]
+) -> Callable[[Future[int], int], Message]:
+    """RECEIVE_ACCEPT from `sender` once `done` succeeded, else `failed`'s reply."""
+
+    def answer(done: Future[int], now_ns: int) -> Message:
         try:
-            sent.result(0)
-        except BaseException:
-            return forward_failed(req, now_ns=now_ns)
-        return reply(req, "RECEIVE_ACCEPT", sender=req.to, now_ns=now_ns)
+            done.result(0)
+        except BaseException as exc:
+            return failed(exc, now_ns)
+        return reply(req, "RECEIVE_ACCEPT", sender=sender, now_ns=now_ns)
 
     return answer
 

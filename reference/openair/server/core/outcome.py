@@ -17,7 +17,7 @@ from openair.server.core.streamservice import PendingWait, SamplePush, WaitReply
 if TYPE_CHECKING:
     import concurrent.futures
 
-__all__ = ["Delivery", "Handler", "Outcome", "StoredReply"]
+__all__ = ["AwaitedReply", "Delivery", "Handler", "Outcome"]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -37,11 +37,12 @@ class Delivery:
 
 
 @dataclass(frozen=True, slots=True)
-class StoredReply:
-    """A post's reply that waits for a cluster's store (OA-CLU-2): `reply(stored, now_ns)`
-    builds it, on the adapter's loop, once `stored` (the wbid, or the failure) is done."""
+class AwaitedReply:
+    """A reply that waits for a cluster node's store or another node (spec 17): a post until
+    the store has it (OA-CLU-2), a message until the module's node queued it (OA-CLU-8).
+    `reply(done, now_ns)` builds it, on the adapter's loop, once `done` is."""
 
-    stored: concurrent.futures.Future[int]
+    done: concurrent.futures.Future[int]
     reply: Callable[[concurrent.futures.Future[int], int], Message]
 
 
@@ -68,9 +69,10 @@ class Outcome:
     # A reply too large to write on the event loop (issue #19, item 6): instead of `replies`,
     # a function that builds it and its frame on any thread. Only with `defer_large_replies`.
     later: Callable[[], tuple[Message, bytes | None]] | None = None
-    # A post to a cluster's whiteboard (spec 17): instead of `replies`, the acknowledgement
-    # once the store has it (OA-CLU-2). Only with `defer_store_replies`.
-    stored: StoredReply | None = None
+    # A cluster node's post or message to another node's module (spec 17): instead of
+    # `replies`, the reply once the store or that node answered. Only with
+    # `defer_store_replies`.
+    awaited: AwaitedReply | None = None
 
 
 #: A component command's handler: (connection, request, received_ns, now_ns) -> Outcome.

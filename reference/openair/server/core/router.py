@@ -47,7 +47,7 @@ from openair.server.core.config import (
     ServerLimits,
 )
 from openair.server.core.contexts import PHASE_CHANGE, Contexts
-from openair.server.core.outcome import Delivery, Outcome, StoredReply
+from openair.server.core.outcome import AwaitedReply, Delivery, Outcome
 from openair.server.core.queues import item_bytes
 from openair.server.core.retrieve import RETRIEVE, RETRIEVES, prepare_retrieve, registration_results
 from openair.server.core.router_commands import ComponentCommands
@@ -118,7 +118,7 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         self.observer: Callable[[str, Message, tuple[Delivery, ...]], None] | None = None
         # The adapter writes large replies on a worker thread (Outcome.later, issue #19).
         self.defer_large_replies = False
-        # The adapter waits for a cluster's store without blocking (Outcome.stored, spec 17).
+        # The adapter waits for a cluster's store without blocking (Outcome.awaited, spec 17).
         self.defer_store_replies = False
         #: A cluster node's sending to another node's module (OA-CLU-8); None: not a node.
         self.elsewhere: Callable[[Message], concurrent.futures.Future[int] | None] | None = None
@@ -187,8 +187,8 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         outcome = self._dispatch(conn, msg, tag, received_ns, now_ns)
         if started is not None and started.deliveries:
             outcome = replace(outcome, deliveries=started.deliveries + outcome.deliveries)
-        if msg.noreply and self._noreply and (outcome.replies or outcome.later or outcome.stored):
-            outcome = replace(outcome, replies=(), later=None, stored=None)  # OA-MSG-15, OA-WB-8
+        if msg.noreply and self._noreply and (outcome.replies or outcome.later or outcome.awaited):
+            outcome = replace(outcome, replies=(), later=None, awaited=None)  # OA-MSG-15, OA-WB-8
         return outcome
 
     def connection_closed(self, conn: ConnId, *, now_ns: int) -> Outcome:
@@ -280,9 +280,9 @@ class Router(ComponentCommands, StreamRouting, Registrations):
             return self._to_stream(conn, msg, received_ns, now_ns)
         if is_media_command(msg.type):  # OA-STREAM-3: not FORWARD_FAILED
             return self._no_stream(msg, now_ns)
-        sent = self.elsewhere(msg) if self.elsewhere is not None and msg.to else None
+        sent = self.elsewhere(msg) if self.elsewhere is not None else None
         if sent is not None:  # OA-CLU-8: bound to another node
-            return Outcome(stored=StoredReply(sent, cmd.reply_when_forwarded(msg)))
+            return Outcome(awaited=AwaitedReply(sent, cmd.reply_when_forwarded(msg)))
         return Outcome(replies=(cmd.forward_failed(msg, now_ns=now_ns),))  # OA-SESS-21
 
     def _refuse_shutting_down(self, msg: Message, now_ns: int) -> Outcome:
@@ -339,8 +339,8 @@ class Router(ComponentCommands, StreamRouting, Registrations):
                 board.post_later(msg, received_ns)  # OA-CLU-5: routed when it comes back
                 return Outcome()
             if self.defer_store_replies and board.sequenced:  # OA-CLU-2: routed when it is back
-                pending = board.post_soon(msg, received_ns)
-                return Outcome(stored=StoredReply(pending, cmd.reply_when_stored(msg, board.name)))
+                done = board.post_soon(msg, received_ns)
+                return Outcome(awaited=AwaitedReply(done, cmd.reply_when_stored(msg, board.name)))
             stored = board.store_post(msg, received_ns)  # OA-TIME-3, OA-WB-4, OA-WB-5
         except StoreFailedError as err:  # OA-WB-3: not stored, so not acknowledged
             return Outcome(replies=(self._error(msg, err, board.name, now_ns),))

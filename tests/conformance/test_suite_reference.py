@@ -39,6 +39,12 @@ LIMITED: dict[str, tuple[dict[str, int], ...]] = {
     ),
     "FRAME-018": ({"frame_deadline_ms": 400},),
     "ATT-005": ({"max_frame_binary": 4096},),
+    "DELIV-018": ({"ack_deadline_ms": 500},),
+    # One server for both: LIM-014 fills max-held-bytes, LIM-015 waits out the retention.
+    **{
+        case_id: ({"max_held_bytes": 262_144, "module_retention_ms": 200},)
+        for case_id in ("LIM-014", "LIM-015")
+    },
     # The 14.1 bounds (issue #15): not applicable at the defaults, which take hundreds of MiB.
     **{
         case_id: (

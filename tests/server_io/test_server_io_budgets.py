@@ -25,7 +25,6 @@ from openair.protocol.objects import parse_dictionary
 from openair.server.aio import responder as responder_module
 from openair.server.aio.app import ServerOptions
 from openair.server.aio.connhost import FlowLimits
-from openair.server.aio.dispatcher import DeliveryOptions
 from openair.server.aio.protocol import Role, ServerConnection
 from openair.server.core.config import ServerLimits
 from openair.server.core.queues import DeliveryQueue
@@ -71,10 +70,8 @@ def test_one_delivery_larger_than_the_queue_bytes_is_still_queued() -> None:
 
 def test_a_stalled_module_holds_no_more_than_its_queue_bytes() -> None:
     async def body() -> None:
-        limits = ServerLimits(max_queue_bytes=256 * KIB)
-        server = await serving(
-            ServerOptions(limits=limits, delivery=DeliveryOptions(deadline_s=BOUND * 2))
-        )
+        limits = ServerLimits(max_queue_bytes=256 * KIB, ack_deadline_ms=int(BOUND * 2000))
+        server = await serving(ServerOptions(limits=limits))
         stalled = TestModule("Stalled", server.port)
         await stalled.bind(listen=False)
         await stalled.subscribe()
@@ -259,10 +256,8 @@ def test_the_whole_frame_deadline_restarts_with_each_frame(
 
 def test_a_post_past_the_held_bytes_is_refused_before_it_is_stored() -> None:
     async def body() -> None:
-        limits = ServerLimits(max_held_bytes=1024 * KIB)
-        server = await serving(
-            ServerOptions(limits=limits, delivery=DeliveryOptions(deadline_s=BOUND * 2))
-        )
+        limits = ServerLimits(max_held_bytes=1024 * KIB, ack_deadline_ms=int(BOUND * 2000))
+        server = await serving(ServerOptions(limits=limits))
         stalled = TestModule("Stalled", server.port)
         await stalled.bind(listen=False)
         await stalled.subscribe()

@@ -59,7 +59,9 @@ def _measure(modules: Sequence[str], globs: Sequence[str], jobs: int) -> dict[st
         cov.switch_context(STARTUP)
         with serving(limits) as target:
             cases = [known[i] for i in ids]
-            summary = run_cases(target, cases, [_Switcher(cov)], jobs=jobs, timeout_scale=1.0)
+            summary = run_cases(
+                target, cases, [_Switcher(cov)], jobs=jobs, timeout_scale=1.0, limits=limits
+            )
             cov.switch_context(TEARDOWN)
         results += summary.results
     cov.stop()

@@ -109,7 +109,9 @@ def _pass(case_ids: Sequence[str], timeout_scale: float, *, jobs: int, confirm: 
     for limits, ids in by_limits([i for i in case_ids if i in known]):
         with serving(limits) as target:
             cases = [known[i] for i in ids]
-            summary = run_cases(target, cases, [catch], jobs=jobs, timeout_scale=timeout_scale)
+            summary = run_cases(
+                target, cases, [catch], jobs=jobs, timeout_scale=timeout_scale, limits=limits
+            )
         if summary.target_deaths:
             return summary.target_deaths[0], catch.late
     return None, catch.late

@@ -21,6 +21,8 @@ __all__ = [
     "CASE_LIMITS",
     "FUZZ_EXAMPLES",
     "FUZZ_SEED",
+    "SECRETS",
+    "SECURE",
     "by_limits",
     "limits_of",
     "run_cases",
@@ -40,6 +42,8 @@ _BYTE_BOUNDS: Limits = (
     ("max_wakeup_result_bytes", 5),
     ("max_wakeup_results", 8),
 )
+#: OA-LIM-14 and OA-LIM-15 at bounds a case reaches in a second (LIM-014, LIM-015).
+_HELD_AND_RETENTION: Limits = (("max_held_bytes", 262_144), ("module_retention_ms", 200))
 #: Retries beyond the default two (OA-DELIV-15): the back-off table's last entry is reused.
 _MORE_RETRIES: Limits = (("delivery_retries", 4), ("retry_deadline_ms", 100))
 
@@ -52,12 +56,23 @@ CASE_LIMITS: dict[str, tuple[Limits, ...]] = {
     "DELIV-013": ((), _MORE_RETRIES),
     "FRAME-018": ((("frame_deadline_ms", 400),),),
     "ATT-005": ((("max_frame_binary", 4096),),),
+    "DELIV-018": ((("ack_deadline_ms", 500),),),
+    **{case_id: (_HELD_AND_RETENTION,) for case_id in ("LIM-014", "LIM-015")},
     **{case_id: (_BYTE_BOUNDS,) for case_id in ("LIM-001", "LIM-002", "LIM-003", "LIM-004")},
 }
 
 
+#: Not a limit: the server runs in secure mode (extension `auth`, spec 14.3) with `SECRETS`,
+#: and the suite gets the same secrets, as `openair conform --auth-secrets FILE` would.
+SECURE: tuple[str, int] = ("secure", 1)
+SECRETS = {"AuthCaseA": "secret-of-case-module-a-0123", "AuthCaseB": "secret-of-case-module-b-4567"}
+
+
 def limits_of(case_id: str) -> tuple[Limits, ...]:
-    """Return every set of server limits a case runs under (`((),)`: the defaults only)."""
+    """Return every set of server limits a case runs under (`((),)`: the defaults only); the
+    secure-mode cases (AUTH-*) run only against a server in secure mode."""
+    if case_id.startswith("AUTH-"):
+        return ((SECURE,),)
     return CASE_LIMITS.get(case_id, ((),))
 
 
@@ -76,8 +91,14 @@ def serving(limits: Limits = ()) -> Iterator[tuple[str, int]]:
     from openair.server.aio.app import ServerOptions, start_server
     from openair.server.core.config import ServerLimits
 
-    server_limits = ServerLimits(**dict(limits))
-    options = ServerOptions(host="127.0.0.1", port=0, limits=server_limits, grace_s=_GRACE_S)
+    server_limits = ServerLimits(**{k: v for k, v in limits if (k, v) != SECURE})
+    options = ServerOptions(
+        host="127.0.0.1",
+        port=0,
+        limits=server_limits,
+        grace_s=_GRACE_S,
+        auth_secrets=SECRETS if SECURE in limits else None,
+    )
     loop = asyncio.new_event_loop()
     thread = threading.Thread(target=loop.run_forever, daemon=True)
     thread.start()
@@ -111,10 +132,13 @@ def run_cases(
     *,
     jobs: int,
     timeout_scale: float,
+    limits: Limits = (),
 ) -> RunSummary:
-    """Run `cases` against `target` in the registry order given, with the kit's engine."""
+    """Run `cases` against `target` (a server started with `limits`) in the registry order
+    given, with the kit's engine."""
     options = RunOptions(
         target=target,
+        auth_secrets=SECRETS if SECURE in limits else {},
         jobs=jobs,
         timeout_scale=timeout_scale,
         fuzz_examples=FUZZ_EXAMPLES,

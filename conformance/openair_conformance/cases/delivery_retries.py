@@ -19,17 +19,21 @@ from openair_conformance.cases._common import triggers_xml
 from openair_conformance.harness import CaseContext, RawConnection, TestModule
 from openair_conformance.harness.checks import is_phase_update, wakeup_trigger_id
 from openair_conformance.harness.conn import ConnectionLost, DecodeProblem, FramedStream
-from openair_conformance.model import Inconclusive
+from openair_conformance.model import Inconclusive, NotApplicable
 from openair_conformance.registry import case
 
 
 class _Dropper:
     """A module's listening port that drops (closes without acknowledging) `drops` deliveries."""
 
-    def __init__(self, ctx: CaseContext, *, name: str, drops: int) -> None:
+    def __init__(self, ctx: CaseContext, *, name: str, drops: int, silent: int = 0) -> None:
         self.ctx = ctx
         self.name = name
         self.drops = drops
+        #: The first `silent` attempts are neither answered nor closed: the port keeps reading
+        #: until the server closes the connection (OA-DELIV-11); `closed_at` says when.
+        self.silent = silent
+        self.closed_at: list[float] = []
         self.attempts: list[tuple[float, Message]] = []
         self.arrived: asyncio.Queue[Message] = asyncio.Queue()
         self._server: asyncio.Server | None = None
@@ -60,6 +64,14 @@ class _Dropper:
             return True
         self.attempts.append((time.monotonic(), msg))
         self.arrived.put_nowait(msg)
+        if len(self.attempts) <= self.silent:
+            self.ctx.note(f"attempt {len(self.attempts)} left unanswered, connection kept open")
+            try:
+                while True:  # whatever comes now is not answered either
+                    await stream.read_frame()
+            except ConnectionLost:
+                self.closed_at.append(time.monotonic())
+                return False
         if len(self.attempts) <= self.drops:
             self.ctx.note(f"attempt {len(self.attempts)} dropped: connection closed unanswered")
             return False
@@ -167,13 +179,19 @@ async def dropped_delivery_is_retried_once(ctx: CaseContext) -> None:
     id="DELIV-013",
     title="A delivery that keeps failing is attempted exactly delivery-retries + 1 times",
     section="6.6",
-    requirements=("OA-DELIV-7", "OA-DELIV-15"),
-    allowed=("the advertised delivery-retries (default 2) retries, then the delivery abandoned",),
+    requirements=("OA-DELIV-7", "OA-DELIV-15", "OA-ERR-5"),
+    allowed=(
+        "the advertised delivery-retries (default 2) retries, then the delivery abandoned",
+        "the module's next delivery arrives once the failed one is abandoned",
+    ),
 )
 async def failing_delivery_is_retried_exactly(ctx: CaseContext) -> None:
-    """Drop every attempt of a wakeup; count the attempts within the advertised retry window.
+    """Drop every attempt of a wakeup; count the attempts within the advertised retry window;
+    then post again: that wakeup must arrive (the module answers it).
 
-    Catches: too few retries, too many, or retries spaced beyond `retry-deadline-ms`.
+    Catches: too few retries, too many, or retries spaced beyond `retry-deadline-ms`; and an
+    abandoned delivery that is never let go (retried for ever in the background, holding the
+    module's one delivery slot, so that it gets nothing more, OA-DELIV-7, OA-ERR-5).
     """
     retries, _ = _retry_window(ctx)
     dropper, poster, _ = await _setup(ctx, drops=retries + 1)
@@ -182,5 +200,97 @@ async def failing_delivery_is_retried_exactly(ctx: CaseContext) -> None:
         assert poster.last_sent is not None
         await _attempts(ctx, dropper, poster.last_sent.id, retries + 1)
         await _no_more(ctx, dropper, retries + 1, "every attempt was dropped")
+        await poster.post("WB1", ctx.type("Go"), "after")
+        assert poster.last_sent is not None
+        after = await ctx.wait(
+            dropper.arrived.get(),
+            what="delivery after the abandoned one",
+            expected="the abandoned delivery lets go of the module: its next one is sent "
+            "(OA-DELIV-7, OA-ERR-5)",
+        )
+        ctx.check(
+            wakeup_trigger_id(after) == poster.last_sent.id,
+            f"after the abandoned delivery came {after.type} for {wakeup_trigger_id(after)!r}",
+            expected=f"the wakeup for the next post, {poster.last_sent.id} (OA-DELIV-7)",
+        )
+    finally:
+        await dropper.close()
+
+
+#: The longest acknowledgement deadline DELIV-018 waits out (the default is 10 000 ms).
+_MAX_ACK_DEADLINE_MS = 3_000
+
+
+@case(
+    id="DELIV-018",
+    title="A delivery left unanswered for ack-deadline-ms has failed: its connection is closed "
+    "and it is retried",
+    section="6.6",
+    requirements=("OA-DELIV-11", "OA-DELIV-7", "OA-DELIV-15"),
+    allowed=(
+        "the server closes the connection that carries the unanswered delivery no sooner than "
+        "ack-deadline-ms after sending it and within it plus the case's deadline, then sends "
+        "the same wakeup again on a new connection within retry-deadline-ms",
+    ),
+)
+async def unanswered_delivery_times_out(ctx: CaseContext) -> None:
+    """Leave the first attempt of a wakeup unanswered with its connection open; the server must
+    close that connection once `ack-deadline-ms` has passed, not before, and retry the delivery.
+
+    Catches: a server that never gives up on an unanswered delivery (the module then gets
+    nothing more), gives up before its advertised deadline, retries on the connection it
+    should have closed, or closes without retrying.
+    """
+    deadline_ms = ctx.server.limit("ack-deadline-ms", 10_000)
+    if deadline_ms > _MAX_ACK_DEADLINE_MS:
+        raise NotApplicable(
+            f"ack-deadline-ms is {deadline_ms}; run against a server advertising at most "
+            f"{_MAX_ACK_DEADLINE_MS} (openair serve --ack-deadline-ms 500)"
+        )
+    retries, window = _retry_window(ctx)
+    if retries < 1:
+        raise Inconclusive("the server advertises delivery-retries 0: nothing to retry")
+    deadline = deadline_ms / 1000
+    dropper, poster, _ = await _setup(ctx, drops=0)
+    dropper.silent = 1
+    try:
+        await poster.post("WB1", ctx.type("Go"), "unanswered")
+        assert poster.last_sent is not None
+        trigger = poster.last_sent.id
+        first = await ctx.wait(
+            dropper.arrived.get(), what="the delivery", expected="the wakeup (OA-TRIG-1)"
+        )
+        sent = dropper.attempts[0][0]
+        again = await ctx.wait(
+            dropper.arrived.get(),
+            what="the retry of the unanswered delivery",
+            timeout=deadline + window + ctx.deadline,
+            expected=f"the delivery failed after ack-deadline-ms ({deadline_ms} ms) and retried "
+            "(OA-DELIV-11, OA-DELIV-7)",
+        )
+        closed = dropper.closed_at[0] if dropper.closed_at else None
+        ctx.check(
+            closed is not None,
+            "the retry came while the connection of the unanswered delivery was still open",
+            expected="that connection closed before the retry (OA-DELIV-11)",
+        )
+        assert closed is not None
+        waited = closed - sent
+        ctx.check(
+            waited >= deadline - 0.05,
+            f"the connection was closed {waited * 1000:.0f} ms after the delivery",
+            expected=f"no sooner than ack-deadline-ms, {deadline_ms} ms (OA-DELIV-11)",
+        )
+        ctx.check(
+            waited <= deadline + ctx.deadline,
+            f"the connection was closed {waited * 1000:.0f} ms after the delivery",
+            expected=f"within ack-deadline-ms ({deadline_ms} ms) and the case's deadline "
+            "(OA-DELIV-11)",
+        )
+        ctx.check(
+            wakeup_trigger_id(first) == trigger and wakeup_trigger_id(again) == trigger,
+            f"the attempts were for {wakeup_trigger_id(first)!r} and {wakeup_trigger_id(again)!r}",
+            expected=f"the same wakeup twice, for {trigger} (OA-DELIV-7)",
+        )
     finally:
         await dropper.close()

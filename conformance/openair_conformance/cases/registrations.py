@@ -528,3 +528,48 @@ async def other_contexts(ctx: CaseContext) -> None:
         names[poster.last_sent.id] = name
     got = [names.get(i, "?") for i in trigger_ids(await sub.barrier())]
     ctx.check(got == ["First"], f"woken by {got}", expected="['First'] (OA-REG-10)")
+
+
+@case(
+    id="REG-015",
+    title="A phase may carry a priority; one outside 0.0–6.999 is refused or works",
+    section="8.2",
+    requirements=("OA-REG-4", "OA-REG-7", "OA-REG-8"),
+    allowed=(
+        "priority 2.5: RECEIVE_ACCEPT and a wakeup for Go",
+        "priority 7.5: RECEIVE_ERROR 'REGISTRATION_INVALID: …', or RECEIVE_ACCEPT and a wakeup "
+        "for Go (the priority read clamped or ignored; PhaseSpec's priority is informative)",
+    ),
+)
+async def phase_priority(ctx: CaseContext) -> None:
+    """Register a context phase with `priority="2.5"` on one module and `priority="7.5"` on
+    another; post Go.
+
+    Catches: a server that refuses a phase carrying Psyclone's `priority` attribute in range
+    (a range test turned around, issue #15), and one that accepts a priority it cannot handle,
+    so that the wakeups of the phase (whose PhaseSpec echoes it) are never sent.
+    """
+    body = triggers_xml(ctx.type("Go"))
+    accepted = []
+    for suffix, priority in (("In", "2.5"), ("Out", "7.5")):
+        sub = await ctx.module(suffix)
+        content = (
+            f'<module name="{sub.name}"><context name="Psyclone.System.Ready">'
+            f'<phase name="P" priority="{priority}">{body}</phase></context></module>'
+        )
+        reply = await sub.subscribe(content, check=priority == "2.5")
+        if reply.type == "RECEIVE_ACCEPT":
+            accepted.append(sub)
+        else:
+            check_error(
+                ctx,
+                reply,
+                names=("REGISTRATION_INVALID",),
+                what=f"a phase with priority {priority}",
+                req="OA-REG-8",
+            )
+    poster = await ctx.module("Poster", bind=False)
+    await poster.post("WB1", ctx.type("Go"), "go")
+    assert poster.last_sent is not None
+    for sub in accepted:
+        await sub.expect_wakeup_for(poster.last_sent.id)

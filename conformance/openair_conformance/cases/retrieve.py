@@ -460,6 +460,71 @@ async def reply_too_large(ctx: CaseContext) -> None:
     )
 
 
+@case(
+    id="RET-013",
+    title="A retrieve reply counts its envelope against max-frame-xml, not only the contents",
+    section="9.3",
+    requirements=("OA-RET-15", "OA-WB-3"),
+    allowed=(
+        "AIR.Retrieve.Failed with content 'LIMIT_EXCEEDED: …'",
+        "AIR.Retrieve.Success in a frame whose XML is at most max-frame-xml",
+    ),
+)
+async def reply_envelope_too_large(ctx: CaseContext) -> None:
+    """Post two messages to WB2 whose contents together are max-frame-xml less 256 bytes;
+    retrieve both on a raw connection and measure the reply frame.
+
+    The contents alone fit, but the two stored copies' envelopes (type, id, names, times,
+    wbid) and the reply's own take the XML past the limit. Catches: a server that checks only
+    the contents (or allows itself a margin beyond the limit) and sends a frame its peers
+    must refuse (issue #15: `content - allowance > max` survived).
+    """
+    limit = ctx.server.limit("max-frame-xml", 16 * 1024 * 1024)
+    if limit > 32 * 1024 * 1024:
+        raise NotApplicable(f"max-frame-xml is {limit}; too large to fill")
+    raw = await ctx.raw()
+    each = (limit - 256) // 2
+    for n in range(2):
+        xml = message_xml(ctx.type(f"Near.{n}"), to="WB2", content="x" * each)
+        await send_big(
+            ctx, raw, b"Message\x00" + struct.pack("<I", len(xml)) + xml, what="a big post"
+        )
+        reply = await raw.read_message(timeout=ctx.deadline * 4)
+        if reply.type != "RECEIVE_ACCEPT":
+            raise Inconclusive(f"setup: a post of {each} bytes got {reply.type} (OA-WB-3)")
+    request = Message(
+        type="AIR.Retrieve",
+        sender=ctx.name("C"),
+        to="AIRCentral",
+        content=_spec(ctx, "Near.*", "<latest>0</latest>", board="WB2"),
+        content_is_xml=True,
+        language="xml",
+    )
+    sent = await raw.send_message(request)
+    frame = await raw.read_frame(timeout=ctx.deadline * 4)
+    ctx.check(
+        len(frame.xml) <= limit,
+        f"the retrieve reply's XML is {len(frame.xml)} bytes",
+        expected=f"at most max-frame-xml ({limit} bytes): else LIMIT_EXCEEDED (OA-RET-15)",
+    )
+    reply = raw.stream.decode(frame)
+    ctx.check(
+        reply.isresponse == sent.id,
+        f"the next message was {reply.type} (isresponse {reply.isresponse!r})",
+        expected="the retrieve's reply",
+    )
+    if reply.type == "AIR.Retrieve.Success":
+        return  # within the limit (checked above): a server may count exactly
+    check_error(
+        ctx,
+        reply,
+        types=("AIR.Retrieve.Failed",),
+        names=("LIMIT_EXCEEDED",),
+        what="a retrieve of two contents 256 bytes short of the limit",
+        req="OA-RET-15",
+    )
+
+
 # -- 9.3 Results: newest first -----------------------------------------------------------------
 
 

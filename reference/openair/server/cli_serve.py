@@ -273,6 +273,14 @@ def _monitor_line(server: Server) -> str:
     type=click.IntRange(1, 3_600_000),
     help="The longest wait between a failed delivery and its retry (OA-DELIV-15).",
 )
+@click.option(
+    "--ack-deadline-ms",
+    default=ServerLimits().ack_deadline_ms,
+    show_default=True,
+    type=click.IntRange(1, 3_600_000),
+    help="How long a delivery may wait for its acknowledgement before it has failed: its "
+    "connection is closed and it is retried (OA-DELIV-11).",
+)
 @budget_options  # --max-queue-bytes … --frame-total-deadline-ms (OA-LIM-8 to OA-LIM-13)
 def serve(
     host: str,
@@ -295,6 +303,7 @@ def serve(
     max_in_flight: int,
     delivery_retries: int,
     retry_deadline_ms: int,
+    ack_deadline_ms: int,
     budgets: dict[str, int],
 ) -> None:
     """Run the OpenAIR reference server until SIGINT or SIGTERM.
@@ -337,6 +346,7 @@ def serve(
             max_in_flight=max_in_flight,
             delivery_retries=delivery_retries,
             retry_deadline_ms=retry_deadline_ms,
+            ack_deadline_ms=ack_deadline_ms,
             **budgets,
         ),
     )

@@ -89,12 +89,14 @@ def free_port(requested: int) -> int:
 
 
 def delivery_options(options: ServerOptions) -> DeliveryOptions:
-    """The delivery timing, with the retry limits the server advertises (OA-DELIV-15)."""
+    """The delivery timing, with the retry and acknowledgement limits the server advertises
+    (OA-DELIV-15, OA-DELIV-11)."""
     limits = options.limits
     most = limits.retry_deadline_ms / 1000
     return replace(
         options.delivery,
         retries=limits.delivery_retries,
+        deadline_s=limits.ack_deadline_ms / 1000,
         backoff_s=tuple(min(b, most) for b in options.delivery.backoff_s),
     )
 

@@ -59,6 +59,7 @@ class ServerLimits:
     max_queue: int = 10_000  # OA-DELIV-8
     delivery_retries: int = 2  # OA-DELIV-15: retries of a failed delivery (OA-DELIV-7)
     retry_deadline_ms: int = 1_000  # OA-DELIV-15: a retry starts this soon after the failure
+    ack_deadline_ms: int = 10_000  # OA-DELIV-11: a delivery unanswered this long has failed
     max_triggers: int = 1024  # OA-LIM-6
     max_type_bytes: int = 255  # OA-TYPE-4
     max_type_segments: int = 32  # OA-TYPE-4
@@ -96,6 +97,7 @@ class ServerLimits:
             ("max-queue", self.max_queue),
             ("delivery-retries", self.delivery_retries),
             ("retry-deadline-ms", self.retry_deadline_ms),
+            ("ack-deadline-ms", self.ack_deadline_ms),
             ("max-triggers", self.max_triggers),
             ("max-type-bytes", self.max_type_bytes),
             ("max-type-segments", self.max_type_segments),

@@ -40,6 +40,8 @@ LIMITED: dict[str, tuple[dict[str, int], ...]] = {
     "FRAME-018": ({"frame_deadline_ms": 400},),
     "ATT-005": ({"max_frame_binary": 4096},),
     "DELIV-018": ({"ack_deadline_ms": 500},),
+    # A server of its own: LIM-016 fills max-held-bytes with queued wakeups.
+    "LIM-016": ({"max_held_bytes": 262_144},),
     # One server for both: LIM-014 fills max-held-bytes, LIM-015 waits out the retention.
     **{
         case_id: ({"max_held_bytes": 262_144, "module_retention_ms": 200},)

@@ -23,7 +23,7 @@ nothing is patched outside the block). The mutants live in modules by spec area:
 - mutants_bounds.py — issue #15: faults the mutation campaign made survive (the byte and
   result bounds of 14.1, the PhaseSpec's triggers, the largest valid after);
 - mutants_campaign_*.py — issue #15: faults of the 2026-11-29 campaign's survivors worth
-  keeping (delivery, routing, sessions, streams, the stream service).
+  keeping (commands, delivery, routing, sessions, streams, the stream service).
 
 test_mutants.py runs the conformance cases that could catch each mutant against a server
 started with it active, and reports which cases catch which mutant.
@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import mutants_attachments
 import mutants_bounds
+import mutants_campaign_commands
 import mutants_campaign_delivery
 import mutants_campaign_routing
 import mutants_campaign_sessions
@@ -67,6 +68,7 @@ MODULES = (
     mutants_sharpened,
     mutants_faults,
     mutants_bounds,
+    mutants_campaign_commands,
     mutants_campaign_delivery,
     mutants_campaign_routing,
     mutants_campaign_sessions,

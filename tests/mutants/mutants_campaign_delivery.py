@@ -8,19 +8,26 @@ that forgets the module's queue without stopping its delivery task, so the old s
 and unanswered deliveries reach the next session under the name (OA-SESS-15; DELIV-016). And
 one the campaign could not reach until `ack-deadline-ms` was advertised: a delivery whose
 acknowledgement never comes is never failed, so it is not retried and the module is stuck
-(OA-DELIV-11; DELIV-018 at a deadline of 500 ms).
+(OA-DELIV-11; DELIV-018 at a deadline of 500 ms). From the second campaign: a pushed sample
+given a fresh per-module delivery state (queue, window, task) of its own, so a legacy module gets
+the next sample before it acknowledged the previous one (OA-DELIV-5, OA-STREAM-14; DELIV-019), and
+noreply stripped from every delivery, also towards a module that declared it, so the message is
+not forwarded unchanged (OA-SESS-22; DELIV-020).
 """
 
 from __future__ import annotations
 
 import asyncio
+from dataclasses import replace
 from typing import Any
 
 import pytest
 from mutants_core import Fn, mutant, wrap
 
+from openair.protocol.message import Message
 from openair.server.aio.delivery import ModuleDelivery
 from openair.server.aio.dispatcher import Dispatcher
+from openair.server.core.streamspec import StoredSample
 
 
 async def _never() -> None:
@@ -75,3 +82,38 @@ def _ack_deadline_ignored(mp: pytest.MonkeyPatch) -> None:
         self._timer = None  # overdue deliveries are left as they are
 
     mp.setattr(ModuleDelivery, "_check_deadlines", _check_deadlines)
+
+
+@mutant(
+    "sample-fresh-delivery",
+    "each pushed sample gets a delivery state (queue, window, task) of its own instead of the "
+    "module's, so a legacy module gets the next sample before it acknowledged the previous one",
+    "OA-DELIV-5",
+    "OA-STREAM-14",
+    cases=("DELIV-019",),
+)
+def _sample_fresh_delivery(mp: pytest.MonkeyPatch) -> None:
+    def push_sample(
+        self: Dispatcher, module: str, stream: str, sample: StoredSample, capacity: int
+    ) -> None:
+        md = self.modules[module] = ModuleDelivery(module, self)  # the old one is left running
+        dropped = md.push_sample(stream, sample, capacity)
+        if dropped:
+            self.host.dropped(module, dropped, "SAMPLE_DROPPED")
+
+    mp.setattr(Dispatcher, "push_sample", push_sample)
+
+
+@mutant(
+    "noreply-always-stripped",
+    "noreply is dropped from every delivery, also towards a module that declared the "
+    "extension, so the message it gets is not the one sent (and it answers it)",
+    "OA-SESS-22",
+    "OA-MSG-15",
+    cases=("DELIV-020",),
+)
+def _noreply_always_stripped(mp: pytest.MonkeyPatch) -> None:
+    def _wire_form(self: ModuleDelivery, msg: Message) -> Message:
+        return replace(msg, noreply=False) if msg.noreply else msg
+
+    mp.setattr(ModuleDelivery, "_wire_form", _wire_form)

@@ -95,6 +95,9 @@ async def roots_and_recency(ctx: CaseContext) -> None:
     section="8.9",
     requirements=("OA-REG-15", "OA-REG-14", "OA-WAKE-9"),
     needs=("contexts",),
+    # It counts phase updates: alone, so that no other case's context change can add one (a
+    # server that sends an update on every context change would hide a missing one otherwise).
+    serial=True,
     allowed=(
         "a PhaseSpec naming PAB in <r>.A.B after <r>.A.B (deeper context on a tie)",
         "an empty <objectdictionary/> after <r>.Other, and a cc'd post still wakes the module",

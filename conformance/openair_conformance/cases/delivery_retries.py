@@ -39,9 +39,9 @@ class _Dropper:
         self._server: asyncio.Server | None = None
         self._streams: list[FramedStream] = []
 
-    async def listen(self, host: str) -> int:
-        """Listen on a free port of `host`; return it."""
-        self._server = await asyncio.start_server(self._accept, host, 0)
+    async def listen(self, host: str, port: int = 0) -> int:
+        """Listen on `port` (0: a free one) of `host`; return the port."""
+        self._server = await asyncio.start_server(self._accept, host, port)
         return int(self._server.sockets[0].getsockname()[1])
 
     async def _accept(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import errno
 import ipaddress
 import socket
 
@@ -69,6 +70,25 @@ def _other_loopback(ctx: CaseContext) -> str:
     return "127.0.0.2" if str(target) != "127.0.0.2" else "127.0.0.3"
 
 
+async def _blocked_port(dropper: _Dropper, source: str) -> tuple[socket.socket, int]:
+    """Hold a port of 127.0.0.1 bound and not listening (a connection there is refused, not
+    answered by someone else) and listen on the same port of `source`; a port taken on
+    `source` meanwhile (a shared host) is given up for another, ten times at most."""
+    for _ in range(10):
+        blocker = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        blocker.bind(("127.0.0.1", 0))
+        port = int(blocker.getsockname()[1])
+        try:
+            await dropper.listen(source, port)
+        except OSError as exc:
+            blocker.close()
+            if exc.errno == errno.EADDRNOTAVAIL:
+                raise NotApplicable(f"this host cannot listen on {source}: {exc}") from exc
+            continue
+        return blocker, port
+    raise Inconclusive(f"setup: found no port free on both 127.0.0.1 and {source}")
+
+
 @case(
     id="DELIV-015",
     title="A listening port is reached at the address the module's primary connection came from",
@@ -93,16 +113,8 @@ async def port_at_primary_address(ctx: CaseContext) -> None:
     source = _other_loopback(ctx)
     name = ctx.name("A")
     dropper = _Dropper(ctx, name=name, drops=0)
+    blocker, port = await _blocked_port(dropper, source)
     try:
-        port = await dropper.listen(source)
-    except OSError as exc:
-        raise NotApplicable(f"this host cannot listen on {source}: {exc}") from exc
-    blocker = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    try:
-        try:
-            blocker.bind(("127.0.0.1", port))  # refused there, not answered by someone else
-        except OSError as exc:
-            raise Inconclusive(f"setup: 127.0.0.1:{port} is in use: {exc}") from exc
         primary = _RawFrom(ctx, label="A/primary#1", source=source)
         await primary.open()
         if primary.stream.local_host != source:

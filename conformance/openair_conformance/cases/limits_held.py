@@ -4,7 +4,7 @@
 The 14.1 cases run when the server advertises small limits and are not applicable, with that
 reason, otherwise: at the defaults (1 GiB held, an hour of retention) reaching a bound takes too
 long. Run them on their own against a server started with `openair serve --max-held-bytes
-262144` (LIM-014) or `--module-retention-ms 200` (LIM-015).
+262144` (LIM-014, LIM-016) or `--module-retention-ms 200` (LIM-015).
 """
 
 from __future__ import annotations
@@ -15,7 +15,13 @@ import struct
 from lxml import etree
 
 from openair.protocol.message import Message
-from openair_conformance.cases._common import check_error, esc, message_xml, send_big
+from openair_conformance.cases._common import (
+    check_error,
+    esc,
+    message_xml,
+    send_big,
+    setup_subscribe,
+)
 from openair_conformance.harness import CaseContext, TestModule
 from openair_conformance.harness.checks import (
     WakeupUnreadable,
@@ -114,6 +120,91 @@ async def held_bytes(ctx: CaseContext) -> None:
         not found,
         f"the refused post is stored ({len(found)} copies retrieved)",
         expected="refused before it is stored (OA-LIM-14)",
+    )
+
+
+#: The tiny posts LIM-016 sends at most: each queues a wakeup carrying an eighth of
+#: max-held-bytes, so the eighth must be refused.
+_QUEUED_POSTS = 8
+
+
+@case(
+    id="LIM-016",
+    title="Queued deliveries count toward max-held-bytes: tiny posts with big wakeups are refused",
+    section="14.1",
+    requirements=("OA-LIM-14", "OA-DELIV-8", "OA-WAKE-7", "OA-ERR-5"),
+    allowed=(
+        "Big (an eighth of max-held-bytes) accepted; of up to eight tiny posts, each queueing a "
+        "wakeup (after 60 s) that retrieves Big, the first accepted and one answered "
+        "RECEIVE_ERROR 'LIMIT_EXCEEDED: …' by the eighth",
+    ),
+)
+async def held_queued(ctx: CaseContext) -> None:
+    """Post Big (an eighth of max-held-bytes and 64 bytes) to WB1; register Sub on `Go.*` with
+    after=60000 and a retrieve of Big; post up to eight tiny `Go.n` until one is refused; close
+    Sub (its queued wakeups are discarded, OA-SESS-15).
+
+    Each accepted Go decides a wakeup that waits its `after` in Sub's queue (pending from its
+    decision, OA-DELIV-8) and carries Big (OA-WAKE-7), so before the eighth the server holds
+    Big and seven such wakeups: more than max-held-bytes whatever it held before. Catches: the
+    bytes of queued deliveries left out of the budget (issue #15: `not self.queued_bytes is not
+    None` survived), so posts are refused only for what is stored.
+    """
+    limit = ctx.server.limit("max-held-bytes", 1 << 30)
+    if limit > _MAX_HELD:
+        raise NotApplicable(
+            f"max-held-bytes is {limit}; run against a server advertising at most {_MAX_HELD} "
+            "(openair serve --max-held-bytes 262144)"
+        )
+    size = limit // _QUEUED_POSTS + 64  # eight of them pass the bound by 512 bytes
+    bounds = {
+        "max-history-bytes": (256 * 1024 * 1024, 2 * limit),
+        "max-wakeup-result-bytes": (4 * 1024 * 1024, 2 * size),
+        "max-queue-bytes": (64 * 1024 * 1024, 2 * limit),
+        "max-queue": (10_000, 2 * _QUEUED_POSTS),
+    }
+    for name, (default, least) in bounds.items():
+        value = ctx.server.limit(name, default)
+        if value and value < least:
+            raise NotApplicable(
+                f"{name} ({value}) is below {least}: the wakeups would not hold Big"
+            )
+    raw = await ctx.raw()
+    big = ctx.type("Big")
+    xml = message_xml(big, to="WB1", content="x" * size)
+    await send_big(ctx, raw, b"Message\x00" + struct.pack("<I", len(xml)) + xml, what="Big")
+    reply = await raw.read_message(timeout=ctx.deadline * 4)
+    if reply.type != "RECEIVE_ACCEPT":
+        raise Inconclusive(f"setup: the post of Big ({size} bytes) got {reply.type}")
+    sub = await ctx.module("Sub")
+    await setup_subscribe(
+        sub,
+        f'<module name="{esc(sub.name)}">'
+        f'<trigger from="WB1" type="{esc(ctx.type("Go.*"))}" after="60000"/>'
+        f'<retrieve from="WB1" type="{esc(big)}"><latest>1</latest></retrieve></module>',
+    )
+    poster = await ctx.module("Poster", bind=False)
+    refused: Message | None = None
+    accepted = 0
+    for n in range(1, _QUEUED_POSTS + 1):
+        reply = await poster.post("WB1", ctx.type(f"Go.{n}"), "go", check=False)
+        if reply.type != "RECEIVE_ACCEPT":
+            refused = reply
+            break
+        accepted += 1
+    if not accepted:
+        raise Inconclusive(f"setup: the first tiny post got {refused.type if refused else None}")
+    await sub.close()  # its queued wakeups go (OA-SESS-15): the bytes are free again
+    ctx.check(
+        refused is not None,
+        f"{_QUEUED_POSTS} tiny posts were all accepted, each queueing a wakeup of Big "
+        f"({size} bytes; max-held-bytes {limit})",
+        expected="one refused by the eighth: queued deliveries count toward max-held-bytes "
+        "(OA-LIM-14), and each carries Big (OA-WAKE-7)",
+    )
+    assert refused is not None
+    check_error(
+        ctx, refused, names=("LIMIT_EXCEEDED",), what="a post past the bound", req="OA-LIM-14"
     )
 
 

@@ -35,6 +35,7 @@ import mutants_attachments
 import mutants_bounds
 import mutants_campaign_commands
 import mutants_campaign_delivery
+import mutants_campaign_regwake
 import mutants_campaign_routing
 import mutants_campaign_sessions
 import mutants_campaign_streams
@@ -70,6 +71,7 @@ MODULES = (
     mutants_bounds,
     mutants_campaign_commands,
     mutants_campaign_delivery,
+    mutants_campaign_regwake,
     mutants_campaign_routing,
     mutants_campaign_sessions,
     mutants_campaign_streams,

@@ -1,7 +1,8 @@
 """The secure-mode cases catch every secure-mode mutant (mutants_auth.py, spec 14.3).
 
 Each mutant runs the AUTH cases against the reference server in secure mode with the fault
-active; it is caught when a case ends fail, error or timing. The clean run is
+active; it is caught when a case ends fail, error, timing or pass-nonstrict (a SHOULD case that
+saw its requirement broken). The clean run is
 tests/conformance/test_suite_auth_reference.py (every AUTH case passes there).
 """
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 
+import mutants_campaign_replies  # noqa: F401  (registers its secure-mode mutants)
 import pytest
 from mutants_auth import AUTH_MUTANTS
 from server_thread import ServerThread
@@ -20,7 +22,7 @@ from openair_conformance.model import Verdict
 from openair_conformance.registry import all_cases
 
 SECRETS = {"AuthCaseA": "secret-of-case-module-a-0123", "AuthCaseB": "secret-of-case-module-b-4567"}
-CATCHING = frozenset({Verdict.FAIL, Verdict.ERROR, Verdict.TIMING})
+CATCHING = frozenset({Verdict.FAIL, Verdict.ERROR, Verdict.TIMING, Verdict.PASS_NONSTRICT})
 #: Which cases caught which mutants in this session (for the last test).
 CAUGHT_BY: dict[str, set[str]] = {}
 

@@ -21,6 +21,8 @@ from openair_conformance.harness import CaseContext, RawConnection, TestModule
 from openair_conformance.harness.checks import (
     WakeupUnreadable,
     WakeupView,
+    attributes,
+    content_object,
     is_phase_update,
     message_collection,
     wakeup_trigger_id,
@@ -35,8 +37,10 @@ __all__ = [
     "ERROR_NAMES",
     "LOCAL_ERROR_NAMES",
     "ack",
+    "bind_nolisten",
     "check_error",
     "cns_request",
+    "dictionary_entries",
     "error_name",
     "esc",
     "frames_until_closed",
@@ -150,6 +154,20 @@ async def send_xml(raw: RawConnection, xml: bytes, tag: FrameTag = FrameTag.MESS
     """Send hand-written XML in one frame and return the next message the server sends."""
     await raw.send_frame(Frame(tag=tag, xml=xml))
     return await raw.read_message()
+
+
+def dictionary_entries(ctx: CaseContext, reply: Message) -> dict[str, str]:
+    """Return the entries of the `<dictionary>` a reply carries (STATUS, GET_ENTRY) as name →
+    text; Fail when it carries none."""
+    try:
+        dictionary = content_object(reply, "dictionary")
+    except WakeupUnreadable as exc:
+        ctx.fail(f"{reply.type} content: {exc}", expected="a <dictionary>")
+    return {
+        attributes(e).get("name", ""): "".join(str(t) for t in e.itertext())
+        for e in dictionary
+        if isinstance(e.tag, str) and e.tag.lower() == "entry"
+    }
 
 
 def error_name(content: str) -> str:
@@ -284,6 +302,13 @@ def trigger_types(wakeups: Iterable[Message]) -> list[str]:
             trigger = None
         found.append(trigger.type if trigger is not None else "")
     return found
+
+
+async def bind_nolisten(raw: RawConnection, name: str) -> None:
+    """BIND_NOLISTEN `name` on `raw`; a refusal is INCONCLUSIVE (a setup step)."""
+    reply = await raw.request(Message(type="BIND_NOLISTEN", sender=name, to="CNS"))
+    if reply.type != "BIND_ACCEPT":
+        raise Inconclusive(f"setup: BIND_NOLISTEN was answered {reply.type} {reply.content!r}")
 
 
 async def raw_module(

@@ -48,6 +48,7 @@ __all__ = [
     "past_window",
     "read_chunk",
     "read_time",
+    "sample_label",
     "samples_xml",
     "stored_params",
     "stream_under_test",
@@ -129,6 +130,16 @@ def read_chunk(data: bytes) -> Sample:
     return Sample(payload=data[4 : 4 + size], params=tuple(params))
 
 
+def sample_label(msg: Message) -> str:
+    """Return the `conf:n` parameter of a DATASAMPLE's sample ("" when it has none)."""
+    if msg.type != "DATASAMPLE" or len(msg.binary) != 1:
+        return ""
+    try:
+        return read_chunk(msg.binary[0]).param("conf:n") or ""
+    except ValueError:
+        return ""
+
+
 def samples_xml(count: int) -> str:
     """Return `<objectcollection>` of `count` `<object><datasample/></object>`."""
     return "<objectcollection>" + "<object><datasample/></object>" * count + "</objectcollection>"
@@ -193,7 +204,9 @@ async def create_stream(
     """Create the stream `ctx.name(suffix)` in WB1 with Psyclone.System.Create.Stream.
 
     `attrs` are further attributes of `<stream>` (type, softcount, idle, …). As a setup step
-    (`setup=True`) a refusal is INCONCLUSIVE; otherwise it FAILS (OA-XSTREAM-10).
+    (`setup=True`) a refusal is INCONCLUSIVE; otherwise it FAILS (OA-XSTREAM-10), except the
+    refusal LIMIT_EXCEEDED naming max-created-streams: a server that has had that many streams
+    created (earlier runs) rightly refuses more (OA-LIM-17), so the case cannot run.
     """
     name = ctx.name(suffix)
     extra = "".join(f' {k}="{esc(str(v))}"' for k, v in attrs.items())
@@ -212,10 +225,15 @@ async def create_stream(
         text = (
             f"Psyclone.System.Create.Stream {content} was answered {reply.type} {reply.content!r}"
         )
-        if setup:
+        if setup or _created_streams_spent(reply):
             raise Inconclusive(f"setup: {text}")
         ctx.fail(text, expected="RECEIVE_ACCEPT (OA-XSTREAM-10)")
     return name
+
+
+def _created_streams_spent(reply: Message) -> bool:
+    """Whether a refusal of a creation is LIMIT_EXCEEDED naming max-created-streams (OA-LIM-17)."""
+    return error_name(reply.content) == "LIMIT_EXCEEDED" and "max-created-streams" in reply.content
 
 
 # -- a client of one stream --------------------------------------------------------------------

@@ -13,11 +13,11 @@ import re
 from openair.protocol.auth import proof
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
-from openair_conformance.cases._common import check_error, next_request, ping_ok
+from openair_conformance.cases._common import check_error, error_name, next_request, ping_ok
 from openair_conformance.harness import CaseContext
 from openair_conformance.harness.conn import ConnectionLost
 from openair_conformance.harness.raw import RawConnection
-from openair_conformance.model import NotApplicable
+from openair_conformance.model import Level, NotApplicable
 from openair_conformance.registry import case
 
 _NONCE_RE = re.compile(r"^[0-9a-f]{64}$")
@@ -448,3 +448,117 @@ async def auth_no_monitor(ctx: CaseContext) -> None:
         f"the server answered HTTP: {got[:40]!r}",
         expected="no HTTP answer, the connection closed (OA-AUTH-11, OA-FRAME-6)",
     )
+
+
+@case(
+    id="AUTH-040",
+    title="GET_CAPABILITIES and AUTH_CHALLENGE need no proof, to an empty to or to CNS",
+    section="14.3",
+    requirements=("OA-AUTH-5", "OA-AUTH-2", "OA-SESS-26"),
+    allowed=("CAPABILITIES and AUTH_NONCE for each; never 'AUTH_REQUIRED: …'",),
+)
+async def auth_open_to_cns(ctx: CaseContext) -> None:
+    """On a connection that proved nothing: GET_CAPABILITIES, then AUTH_CHALLENGE, each with an
+    empty `to` and with `to` = CNS. Runs on every server: one that refuses GET_CAPABILITIES
+    with AUTH_REQUIRED advertises nothing, not even `auth`.
+
+    Catches: a gate that opens these commands only for one spelling of CNS (the kit would take
+    the server for a legacy one and skip every secure-mode case).
+    """
+    raw = await ctx.raw()
+    name = ctx.name("Open")
+    for to in ("", "CNS"):
+        caps = await raw.request(Message(type="GET_CAPABILITIES", sender=name, to=to))
+        ctx.check(
+            error_name(caps.content) != "AUTH_REQUIRED",
+            f"GET_CAPABILITIES to {to!r} was refused: {caps.type} {caps.content!r}",
+            expected="CAPABILITIES without a proof (OA-AUTH-5)",
+        )
+    if "auth" not in ctx.server.capabilities:
+        raise NotApplicable("the server does not advertise auth")
+    for to in ("", "CNS"):
+        caps = await raw.request(Message(type="GET_CAPABILITIES", sender=name, to=to))
+        ctx.check(
+            caps.type == "CAPABILITIES",
+            f"GET_CAPABILITIES to {to!r}: {caps.type} {caps.content!r}",
+            expected="CAPABILITIES without a proof (OA-AUTH-5)",
+        )
+        nonce = await raw.request(Message(type="AUTH_CHALLENGE", sender=name, to=to))
+        ctx.check(
+            nonce.type == "AUTH_NONCE",
+            f"AUTH_CHALLENGE to {to!r}: {nonce.type} {nonce.content!r}",
+            expected="AUTH_NONCE without a proof (OA-AUTH-2, OA-AUTH-5)",
+        )
+
+
+@case(
+    id="AUTH-041",
+    title="Before a proof PING goes anywhere but to a bound module; the CNS commands only to CNS",
+    section="14.3",
+    requirements=("OA-AUTH-5", "OA-SESS-10", "OA-SESS-21"),
+    needs=_NEEDS,
+    allowed=(
+        "RECEIVE_ERROR 'AUTH_REQUIRED: …' for GET_CAPABILITIES or AUTH_CHALLENGE to another "
+        "component or a whiteboard",
+        "PING_SUCCESS / KEEPALIVESUCCESS from WB1, FORWARD_FAILED for PING to an unbound name",
+    ),
+)
+async def auth_open_only_to_cns(ctx: CaseContext) -> None:
+    """On a connection that proved nothing: GET_CAPABILITIES to Psyclone and AIRServer,
+    AUTH_CHALLENGE to WB1 and AIRCentral; then PING and KEEPALIVE to WB1 and PING to a name
+    nobody bound.
+
+    Catches: a gate that opens the CNS commands for other addressees (a whiteboard would store
+    them as posts of an unproved name), and one that refuses PING to a whiteboard or to an
+    unbound name, which OA-AUTH-5 leaves open.
+    """
+    raw = await ctx.raw()
+    name = ctx.name("Anon")
+    for kind, to in (
+        ("GET_CAPABILITIES", "Psyclone"),
+        ("GET_CAPABILITIES", "AIRServer"),
+        ("AUTH_CHALLENGE", "WB1"),
+        ("AUTH_CHALLENGE", "AIRCentral"),
+    ):
+        reply = await raw.request(Message(type=kind, sender=name, to=to))
+        _auth_required(ctx, reply, f"{kind} to {to}")
+    for kind, answer in (("PING", "PING_SUCCESS"), ("KEEPALIVE", "KEEPALIVESUCCESS")):
+        reply = await raw.request(Message(type=kind, sender=name, to="WB1"))
+        ctx.check(
+            reply.type == answer,
+            f"{kind} to WB1 was answered {reply.type} {reply.content!r}",
+            expected=f"{answer} without a proof (OA-AUTH-5, OA-SESS-10)",
+        )
+    nobody = ctx.name("Nobody")
+    reply = await raw.request(Message(type="PING", sender=name, to=nobody))
+    ctx.check(
+        reply.type == "FORWARD_FAILED",
+        f"PING to the unbound {nobody} was answered {reply.type} {reply.content!r}",
+        expected="FORWARD_FAILED: PING to an unbound name needs no proof (OA-AUTH-5, OA-SESS-21)",
+    )
+
+
+@case(
+    id="AUTH-042",
+    title="An AUTH_REQUIRED refusal of a post comes from the whiteboard addressed",
+    section="14.3",
+    requirements=("OA-SESS-32", "OA-AUTH-5"),
+    level=Level.SHOULD,
+    needs=_NEEDS,
+    allowed=("RECEIVE_ERROR 'AUTH_REQUIRED: …' from WB1, then from AIRCentral",),
+)
+async def auth_refusal_sender(ctx: CaseContext) -> None:
+    """Post to WB1 and to AIRCentral on a connection that proved nothing.
+
+    Catches: refusals always sent from CNS, whichever whiteboard was addressed.
+    """
+    raw = await ctx.raw()
+    name = ctx.name("Anon")
+    for board in ("WB1", "AIRCentral"):
+        reply = await raw.request(Message(type=ctx.type("Anon"), sender=name, to=board))
+        _auth_required(ctx, reply, f"a post to {board}")
+        ctx.check(
+            reply.sender == board,
+            f"the refusal of a post to {board} came from {reply.sender!r}",
+            expected=f"from = {board}, the answering whiteboard (OA-SESS-32)",
+        )

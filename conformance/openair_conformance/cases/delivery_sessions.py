@@ -2,8 +2,8 @@
 and the queue a session leaves behind.
 
 The modules here are raw connections (`raw_module`) or a listener of the case's own
-(`_Dropper`, delivery_retries.py, with nothing to drop), so the case decides where the module
-is reachable and when its session ends.
+(`_delivery.Dropper`, with nothing to drop), so the case decides where the module is reachable
+and when its session ends.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from openair_conformance.cases._common import (
     setup_subscribe,
     triggers_xml,
 )
-from openair_conformance.cases._streams import StreamClient, create_stream, read_chunk
-from openair_conformance.cases.delivery_retries import _Dropper, _retry_window
+from openair_conformance.cases._delivery import Dropper, retry_window
+from openair_conformance.cases._streams import StreamClient, create_stream, sample_label
 from openair_conformance.harness import CaseContext, RawConnection
 from openair_conformance.harness.checks import is_phase_update, wakeup_trigger_id
 from openair_conformance.harness.conn import TARGET_TLS, ConnectionLost, DecodeProblem, FramedStream
@@ -70,7 +70,7 @@ def _other_loopback(ctx: CaseContext) -> str:
     return "127.0.0.2" if str(target) != "127.0.0.2" else "127.0.0.3"
 
 
-async def _blocked_port(dropper: _Dropper, source: str) -> tuple[socket.socket, int]:
+async def _blocked_port(dropper: Dropper, source: str) -> tuple[socket.socket, int]:
     """Hold a port of 127.0.0.1 bound and not listening (a connection there is refused, not
     answered by someone else) and listen on the same port of `source`; a port taken on
     `source` meanwhile (a shared host) is given up for another, ten times at most."""
@@ -112,10 +112,10 @@ async def port_at_primary_address(ctx: CaseContext) -> None:
     """
     source = _other_loopback(ctx)
     name = ctx.name("A")
-    dropper = _Dropper(ctx, name=name, drops=0)
+    dropper = Dropper(ctx, name=name, drops=0)
     blocker, port = await _blocked_port(dropper, source)
+    primary = _RawFrom(ctx, label="A/primary#1", source=source)
     try:
-        primary = _RawFrom(ctx, label="A/primary#1", source=source)
         await primary.open()
         if primary.stream.local_host != source:
             raise Inconclusive(f"setup: the connection came from {primary.stream.local_host}")
@@ -149,8 +149,8 @@ async def port_at_primary_address(ctx: CaseContext) -> None:
             f"{source}:{port} got {got.type} for {wakeup_trigger_id(got)!r}",
             expected=f"the wakeup for {poster.last_sent.id} (OA-DELIV-1)",
         )
-        await primary.close()
     finally:
+        await primary.close()  # nothing to close when it never opened
         blocker.close()
         await dropper.close()
 
@@ -277,16 +277,6 @@ class _Holder:
 _LABELS = ("A", "B", "C")
 
 
-def _sample_label(msg: Message) -> str:
-    """Return the `conf:n` parameter of a DATASAMPLE's sample ("" when it has none)."""
-    if msg.type != "DATASAMPLE" or len(msg.binary) != 1:
-        return ""
-    try:
-        return read_chunk(msg.binary[0]).param("conf:n") or ""
-    except ValueError:
-        return ""
-
-
 @case(
     id="DELIV-017",
     title="Pushed samples in flight together when the connection closes are each retried",
@@ -307,6 +297,11 @@ async def pushed_samples_retried(ctx: CaseContext) -> None:
     or does not retry a pushed sample at all (OA-STREAM-14 sends them through the delivery
     path of 6.6, where OA-DELIV-7 and OA-DELIV-15 hold).
     """
+    window = ctx.server.limit("max-in-flight", 256)
+    if window < len(_LABELS):
+        raise NotApplicable(
+            f"max-in-flight is {window}: fewer than {len(_LABELS)} samples can be in flight"
+        )
     raw = await ctx.raw("Creator")
     stream = await create_stream(ctx, raw, "Pushed", idle=0)
     name = ctx.name("H")
@@ -337,25 +332,28 @@ async def pushed_samples_retried(ctx: CaseContext) -> None:
         writer = await StreamClient.open(ctx, stream, "Writer")
         for label in _LABELS:
             await writer.add(label.encode(), [("conf:n", label)])
-            try:
-                got = await asyncio.wait_for(holder.first.get(), ctx.deadline)
-            except TimeoutError:
-                raise Inconclusive(
-                    f"setup: sample {label} was not pushed while the earlier one was unanswered"
-                ) from None
-            if _sample_label(got) != label:
+            got = await ctx.wait(
+                holder.first.get(),
+                what=f"the push of sample {label} while the earlier ones are unanswered",
+                expected=f"up to max-in-flight ({window}) deliveries in flight to a module "
+                "declaring pipelining (OA-DELIV-5, OA-STREAM-14)",
+            )
+            if sample_label(got) != label:
                 raise Inconclusive(f"setup: the module got {got.type}, not sample {label}")
         await holder.drop_first()
-        _, window = _retry_window(ctx)
-        again: set[str] = set()
-        loop = asyncio.get_running_loop()
-        until = loop.time() + window
-        while again != set(_LABELS) and (left := until - loop.time()) > 0:
-            with contextlib.suppress(TimeoutError):
-                again.add(_sample_label(await asyncio.wait_for(holder.later.get(), left)))
-        ctx.check(
-            again >= set(_LABELS),
-            f"after the connection closed, samples {sorted(again - {''})} came again",
+
+        async def retried() -> None:
+            again: set[str] = set()
+            while not again >= set(_LABELS):
+                label = sample_label(await holder.later.get())
+                ctx.note(f"sample {label or '(unlabelled)'} came again")
+                again.add(label)
+
+        _, retry = retry_window(ctx)
+        await ctx.wait(
+            retried(),
+            timeout=retry,
+            what="retry of each of samples A, B and C after the connection closed",
             expected="each failed delivery retried: A, B and C (OA-DELIV-7, OA-DELIV-15)",
         )
     finally:

@@ -9,27 +9,18 @@ The modules here bind with BIND_NOLISTEN and the case reads their callback conne
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Awaitable
 
 from openair.protocol.message import Message
 from openair_conformance.cases._common import ack, esc, next_request, raw_module
-from openair_conformance.cases._streams import StreamClient, create_stream, read_chunk
+from openair_conformance.cases._streams import StreamClient, create_stream, sample_label
 from openair_conformance.harness import CaseContext
 from openair_conformance.model import Inconclusive
 from openair_conformance.registry import case
 
-#: How long DELIV-019 watches for a second sample while the first is unanswered: a server that
-#: sends it without waiting does so as soon as the add is accepted, within milliseconds.
+#: How long DELIV-019 watches for a second sample while the first is unanswered (its docstring
+#: says why a fixed time).
 _QUIET_S = 0.5
-
-
-def _label(msg: Message) -> str:
-    """Return the `conf:n` parameter of a DATASAMPLE's sample ("" when it has none)."""
-    if msg.type != "DATASAMPLE" or len(msg.binary) != 1:
-        return ""
-    try:
-        return read_chunk(msg.binary[0]).param("conf:n") or ""
-    except ValueError:
-        return ""
 
 
 @case(
@@ -49,6 +40,10 @@ async def samples_one_at_a_time(ctx: CaseContext) -> None:
     pushed and held unanswered, sample B is added; B must not come before A is acknowledged,
     and must come after.
 
+    The absence of B is watched for a fixed `_QUIET_S` (0.5 s), not a deadline derived from the
+    round trip: a server that sends B without waiting does so as soon as the add is accepted,
+    within milliseconds; and no longer than half of ack-deadline-ms, past which A has failed
+    (OA-DELIV-11) and the server rightly closes the connection to retry it.
     Catches: a server that pushes each sample on its own delivery task or window (a new
     per-module state for every sample), so that a legacy module gets several deliveries in
     flight (OA-DELIV-5) and the window OA-STREAM-14 keeps is not the module's.
@@ -72,45 +67,38 @@ async def samples_one_at_a_time(ctx: CaseContext) -> None:
         raise Inconclusive(f"setup: AIR.Subscribe was answered {reply.type} {reply.content!r}")
     writer = await StreamClient.open(ctx, stream, "Writer")
 
-    async def take(timeout: float) -> Message:
-        return await asyncio.wait_for(
-            next_request(ctx, callback, receive_id=receive_id, name=name), timeout
-        )
+    def take() -> Awaitable[Message]:
+        return next_request(ctx, callback, receive_id=receive_id, name=name)
 
     await writer.add(b"A", [("conf:n", "A")])
-    try:
-        first = await take(ctx.deadline)
-    except TimeoutError:
-        raise Inconclusive("setup: sample A was not pushed to the module") from None
-    if _label(first) != "A":
+    first = await ctx.wait(
+        take(), what="the push of sample A", expected="each sample added delivered (OA-STREAM-14)"
+    )
+    if sample_label(first) != "A":
         raise Inconclusive(f"setup: the module got {first.type}, not sample A")
     await writer.add(b"B", [("conf:n", "B")])
-    # Watch no longer than half the acknowledgement deadline: past it A has failed (OA-DELIV-11)
-    # and the server rightly closes the connection to retry it.
     quiet = min(_QUIET_S, ctx.server.limit("ack-deadline-ms", 10_000) / 2000)
     early: Message | None = None
     try:
-        early = await take(quiet)
+        early = await asyncio.wait_for(take(), quiet)
     except TimeoutError:
         ctx.note(f"nothing came in {quiet} s while sample A was unanswered")
     ctx.check(
         early is None,
-        f"the legacy module got {early.type if early else ''} {_label(early) if early else ''} "
-        "while sample A was unanswered",
+        f"the legacy module got {early.type if early else ''} "
+        f"{sample_label(early) if early else ''} while sample A was unanswered",
         expected="one delivery at a time to a legacy module: B after A's acknowledgement "
         "(OA-DELIV-5, OA-STREAM-14)",
     )
     await ack(callback, first, name)
-    try:
-        second = await take(ctx.deadline)
-    except TimeoutError:
-        ctx.fail(
-            "sample B did not come after sample A was acknowledged",
-            expected="each sample added delivered (OA-STREAM-14)",
-        )
+    second = await ctx.wait(
+        take(),
+        what="sample B after sample A was acknowledged",
+        expected="each sample added delivered (OA-STREAM-14)",
+    )
     ctx.check(
-        _label(second) == "B",
-        f"after sample A the module got {second.type} {_label(second)!r}",
+        sample_label(second) == "B",
+        f"after sample A the module got {second.type} {sample_label(second)!r}",
         expected="sample B (OA-STREAM-14)",
     )
     await ack(callback, second, name)
@@ -143,15 +131,11 @@ async def noreply_kept_for_declarer(ctx: CaseContext) -> None:
         type=ctx.type("Quiet"), sender=sender.name, to=name, content="psst", noreply=True
     )
     await sender.send_noreply(quiet)
-    try:
-        got = await asyncio.wait_for(
-            next_request(ctx, callback, receive_id=receive_id, name=name), ctx.deadline
-        )
-    except TimeoutError:
-        ctx.fail(
-            f"{quiet.type} did not reach the module",
-            expected="the message queued for delivery to the module (OA-SESS-22)",
-        )
+    got = await ctx.wait(
+        next_request(ctx, callback, receive_id=receive_id, name=name),
+        what=f"delivery of {quiet.type}",
+        expected="the message queued for delivery to the module (OA-SESS-22)",
+    )
     ctx.check(
         got.type == quiet.type and got.noreply,
         f"the delivery is {got.type!r} with noreply={got.noreply}",
@@ -161,15 +145,11 @@ async def noreply_kept_for_declarer(ctx: CaseContext) -> None:
     reply = await sender.request(loud)
     if reply.type != "RECEIVE_ACCEPT":
         raise Inconclusive(f"setup: {loud.type} was answered {reply.type} {reply.content!r}")
-    try:
-        after = await asyncio.wait_for(
-            next_request(ctx, callback, receive_id=receive_id, name=name), ctx.deadline
-        )
-    except TimeoutError:
-        ctx.fail(
-            f"{loud.type} did not come while the noreply delivery stayed unanswered",
-            expected="no acknowledgement awaited for a noreply message (OA-MSG-15)",
-        )
+    after = await ctx.wait(
+        next_request(ctx, callback, receive_id=receive_id, name=name),
+        what=f"delivery of {loud.type} while the noreply delivery stays unanswered",
+        expected="no acknowledgement awaited for a noreply message (OA-MSG-15)",
+    )
     ctx.check(
         after.type == loud.type,
         f"after the noreply message the module got {after.type!r}",

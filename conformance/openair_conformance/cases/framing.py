@@ -447,18 +447,27 @@ async def truncated_frame(ctx: CaseContext) -> None:
     title="A Receive frame without RECEIVE_NAME_NOTIFICATION is refused; the connection stays",
     section="2.1",
     requirements=("OA-FRAME-10", "OA-ERR-2"),
-    allowed=("RECEIVE_ERROR 'MESSAGE_INVALID: …', then PING in a Message frame is answered",),
+    allowed=(
+        "RECEIVE_ERROR 'MESSAGE_INVALID: …' for each, then PING in a Message frame is answered",
+    ),
 )
 async def receive_frame_wrong_type(ctx: CaseContext) -> None:
-    """Send a PING in a Receive frame, then a PING in a Message frame.
+    """Send a PING, then a STATUS, in a Receive frame, then a PING in a Message frame.
 
-    Catches: a server that turns the connection into a callback for any Receive frame.
+    Catches: a server that turns the connection into a callback for any Receive frame, or
+    for any type but a few (STATUS sorts after RECEIVE_NAME_NOTIFICATION, PING before it).
     """
     raw = await ctx.raw()
-    reply = await send_xml(raw, _ping(ctx), FrameTag.RECEIVE)
-    check_error(
-        ctx, reply, names=("MESSAGE_INVALID",), what="a PING in a Receive frame", req="OA-FRAME-10"
-    )
+    for type_ in ("PING", "STATUS"):
+        xml = message_xml(type_, to="CNS", sender=ctx.name("F"))
+        reply = await send_xml(raw, xml, FrameTag.RECEIVE)
+        check_error(
+            ctx,
+            reply,
+            names=("MESSAGE_INVALID",),
+            what=f"a {type_} in a Receive frame",
+            req="OA-FRAME-10",
+        )
     await ping_ok(ctx, raw, what="in a Message frame after it", req="OA-FRAME-10")
 
 

@@ -12,11 +12,10 @@ from __future__ import annotations
 import asyncio
 import struct
 
-from lxml import etree
-
 from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     check_error,
+    dictionary_entries,
     esc,
     message_xml,
     send_big,
@@ -25,8 +24,6 @@ from openair_conformance.cases._common import (
 from openair_conformance.harness import CaseContext, TestModule
 from openair_conformance.harness.checks import (
     WakeupUnreadable,
-    attributes,
-    content_object,
     message_collection,
 )
 from openair_conformance.model import Inconclusive, NotApplicable
@@ -38,18 +35,10 @@ _MAX_HELD = 4 * 1024 * 1024
 _MAX_RETENTION_MS = 2_000
 
 
-async def _status(ctx: CaseContext, module: TestModule) -> list[tuple[str, str]]:
-    """Ask CNS for STATUS; return its dictionary's entries as (name, text)."""
+async def _status(ctx: CaseContext, module: TestModule) -> dict[str, str]:
+    """Ask CNS for STATUS; return its dictionary's entries (name → text)."""
     reply = await module.request(Message(type="STATUS", sender=module.name, to="CNS"))
-    try:
-        dictionary = content_object(reply, "dictionary")
-    except WakeupUnreadable as exc:
-        ctx.fail(f"STATUS was answered {reply.type}: {exc}", expected="a <dictionary> (OA-SESS-25)")
-    return [
-        (attributes(entry).get("name", ""), (entry.text or "").strip())
-        for entry in dictionary
-        if isinstance(entry.tag, str) and etree.QName(entry).localname.lower() == "entry"
-    ]
+    return dictionary_entries(ctx, reply)
 
 
 @case(
@@ -57,6 +46,8 @@ async def _status(ctx: CaseContext, module: TestModule) -> list[tuple[str, str]]
     title="A post that would take the bytes held past max-held-bytes is refused, not stored",
     section="14.1",
     requirements=("OA-LIM-14", "OA-ERR-5"),
+    serial=True,  # it fills the server-wide max-held-bytes
+    residue=True,  # and leaves it full (the posts stay stored): it runs after every other case
     allowed=(
         "the first post of a quarter of max-held-bytes accepted; by the fifth, one answered "
         "RECEIVE_ERROR 'LIMIT_EXCEEDED: …' and not retrievable",
@@ -133,16 +124,19 @@ _QUEUED_POSTS = 8
     title="Queued deliveries count toward max-held-bytes: tiny posts with big wakeups are refused",
     section="14.1",
     requirements=("OA-LIM-14", "OA-DELIV-8", "OA-WAKE-7", "OA-ERR-5"),
+    serial=True,  # it fills the server-wide max-held-bytes
     allowed=(
         "Big (an eighth of max-held-bytes) accepted; of up to eight tiny posts, each queueing a "
         "wakeup (after 60 s) that retrieves Big, the first accepted and one answered "
-        "RECEIVE_ERROR 'LIMIT_EXCEEDED: …' by the eighth",
+        "RECEIVE_ERROR 'LIMIT_EXCEEDED: …' by the eighth; that post accepted once Sub has "
+        "closed",
     ),
 )
 async def held_queued(ctx: CaseContext) -> None:
     """Post Big (an eighth of max-held-bytes and 64 bytes) to WB1; register Sub on `Go.*` with
     after=60000 and a retrieve of Big; post up to eight tiny `Go.n` until one is refused; close
-    Sub (its queued wakeups are discarded, OA-SESS-15).
+    Sub (its queued wakeups are discarded, OA-SESS-15) and post the refused `Go.n` again: it
+    must now be accepted, else the refusal had another cause and the case is inconclusive.
 
     Each accepted Go decides a wakeup that waits its `after` in Sub's queue (pending from its
     decision, OA-DELIV-8) and carries Big (OA-WAKE-7), so before the eighth the server holds
@@ -206,6 +200,27 @@ async def held_queued(ctx: CaseContext) -> None:
     check_error(
         ctx, refused, names=("LIMIT_EXCEEDED",), what="a post past the bound", req="OA-LIM-14"
     )
+    await _freed(ctx, poster, ctx.type(f"Go.{accepted + 1}"))
+
+
+async def _freed(ctx: CaseContext, poster: TestModule, type_: str) -> None:
+    """Post `type_` again, now that Sub's queued wakeups are gone: accepted, else INCONCLUSIVE.
+
+    The server drops a closed module's queue as it notices the close, so the post is tried
+    until a deadline has passed.
+    """
+    loop = asyncio.get_running_loop()
+    until = loop.time() + ctx.deadline
+    while True:
+        reply = await poster.post("WB1", type_, "go", check=False)
+        if reply.type == "RECEIVE_ACCEPT":
+            return
+        if loop.time() >= until:
+            raise Inconclusive(
+                f"the refusal was not caused by queued deliveries: {type_} was answered "
+                f"{reply.type} {reply.content!r} again after Sub closed"
+            )
+        await asyncio.sleep(ctx.deadline / 20)
 
 
 @case(
@@ -233,12 +248,12 @@ async def retention(ctx: CaseContext) -> None:
     gone = await ctx.module("Gone")
     asker = await ctx.module("Asker", bind=False)
     await gone.request(Message(type="PING", sender=gone.name, to="CNS"))
-    naming = [name for name, _ in await _status(ctx, asker) if gone.name in name]
+    naming = [name for name in await _status(ctx, asker) if gone.name in name]
     if not naming:
         raise NotApplicable("STATUS shows no per-module entries: OA-LIM-15 is not observable")
     await gone.close()
     await asyncio.sleep(retention_ms * 1.25 / 1000 + ctx.deadline)
-    left = [name for name, _ in await _status(ctx, asker) if gone.name in name]
+    left = [name for name in await _status(ctx, asker) if gone.name in name]
     ctx.check(
         not left,
         f"STATUS still names the module gone {retention_ms * 1.25:.0f} ms ago: {left[:3]}",

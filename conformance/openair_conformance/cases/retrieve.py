@@ -475,15 +475,24 @@ async def reply_envelope_too_large(ctx: CaseContext) -> None:
     retrieve both on a raw connection and measure the reply frame.
 
     The contents alone fit, but the two stored copies' envelopes (type, id, names, times,
-    wbid) and the reply's own take the XML past the limit. Catches: a server that checks only
-    the contents (or allows itself a margin beyond the limit) and sends a frame its peers
-    must refuse (issue #15: `content - allowance > max` survived).
+    wbid) and the reply's own take the XML past the limit. A success must return both copies:
+    with one (the other evicted by max-history-bytes, OA-LIM-10) nothing was tested, and the
+    case is inconclusive. Catches: a server that checks only the contents (or allows itself a
+    margin beyond the limit) and sends a frame its peers must refuse (issue #15: `content -
+    allowance > max` survived).
     """
     limit = ctx.server.limit("max-frame-xml", 16 * 1024 * 1024)
     if limit > 32 * 1024 * 1024:
         raise NotApplicable(f"max-frame-xml is {limit}; too large to fill")
-    raw = await ctx.raw()
     each = (limit - 256) // 2
+    history = ctx.server.limit("max-history-bytes", 256 * 1024 * 1024)
+    needed = 2 * each + 4096  # the two contents and their envelopes
+    if history and history < needed:
+        raise NotApplicable(
+            f"max-history-bytes ({history}) is below the {needed} bytes the two posts take: "
+            "the first would be evicted (OA-LIM-10)"
+        )
+    raw = await ctx.raw()
     for n in range(2):
         xml = message_xml(ctx.type(f"Near.{n}"), to="WB2", content="x" * each)
         await send_big(
@@ -514,6 +523,12 @@ async def reply_envelope_too_large(ctx: CaseContext) -> None:
         expected="the retrieve's reply",
     )
     if reply.type == "AIR.Retrieve.Success":
+        try:
+            copies = len(message_collection(reply))
+        except WakeupUnreadable as exc:
+            ctx.fail(f"retrieve result: {exc}", expected="an <objectcollection> (OA-RET-7)")
+        if copies != 2:
+            raise Inconclusive(f"setup: {copies} of the 2 posts were retrievable")
         return  # within the limit (checked above): a server may count exactly
     check_error(
         ctx,

@@ -14,6 +14,7 @@ from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
 from openair_conformance.cases._common import (
     ack,
+    bind_nolisten,
     cns_request,
     next_request,
     raw_module,
@@ -23,28 +24,30 @@ from openair_conformance.cases._common import (
 )
 from openair_conformance.harness import CaseContext, RawConnection
 from openair_conformance.harness.checks import wakeup_trigger_id
-from openair_conformance.model import Inconclusive
+from openair_conformance.model import Inconclusive, NotApplicable
 from openair_conformance.registry import case
 
 #: The longest the case leaves a delivery with no way to the module (see `_no_path_s`).
-_NO_PATH_MAX_S = 3.0
+_NO_PATH_MAX_S = 5.0
 
 
 def _no_path_s(ctx: CaseContext) -> float:
     """How long the case leaves a delivery with no way to the module: as long as a server's
     retries of a failed delivery may take by its advertised limits (delivery-retries, each retry
-    within retry-deadline-ms of the failure, OA-DELIV-15; at most `_NO_PATH_MAX_S`), so that a
+    within retry-deadline-ms of the failure, OA-DELIV-15) and the case's deadline, so that a
     server that takes "no callback connection" for a failed attempt has abandoned it by then.
+    NotApplicable when that is longer than `_NO_PATH_MAX_S`: a shorter wait would let such a
+    server pass.
     """
     retries = ctx.server.limit("delivery-retries", 2)
     deadline_ms = ctx.server.limit("retry-deadline-ms", 1000)
-    return min(max(retries, 1) * deadline_ms / 1000 + 0.2, _NO_PATH_MAX_S)
-
-
-async def _bind_nolisten(ctx: CaseContext, raw: RawConnection, name: str) -> None:
-    reply = await raw.request(Message(type="BIND_NOLISTEN", sender=name, to="CNS"))
-    if reply.type != "BIND_ACCEPT":
-        raise Inconclusive(f"setup: BIND_NOLISTEN was answered {reply.type} {reply.content!r}")
+    wait = retries * deadline_ms / 1000 + ctx.deadline
+    if wait > _NO_PATH_MAX_S:
+        raise NotApplicable(
+            f"the retries may take {wait:.1f} s (delivery-retries {retries}, retry-deadline-ms "
+            f"{deadline_ms}, and the deadline): more than the case waits, {_NO_PATH_MAX_S} s"
+        )
+    return wait
 
 
 async def _subscribe(ctx: CaseContext, primary: RawConnection, name: str, pattern: str) -> None:
@@ -74,10 +77,11 @@ async def _end_callback(ctx: CaseContext, callback: RawConnection, probe: RawCon
     """Close a callback connection and let the server see its end before the case goes on.
 
     The end travels on another connection than the case's next request, so the case waits a
-    little and makes a round trip (a PING) on `probe` first.
+    quarter of the deadline (ten round trips: time enough to see the end) and makes a round
+    trip (a PING) on `probe` first.
     """
     await callback.close()
-    await asyncio.sleep(0.2)
+    await asyncio.sleep(ctx.deadline / 4)
     reply = await probe.request(cns_request(ctx, "PING"))
     if reply.type != "PING_SUCCESS":
         raise Inconclusive(f"setup: PING was answered {reply.type}")
@@ -120,10 +124,10 @@ async def takeover_by_connection(ctx: CaseContext) -> None:
     await setup_subscribe(watcher, triggers_xml(*notices, wb="AIRCentral"))
     same = await ctx.raw("N/primary")
     for _ in range(2):
-        await _bind_nolisten(ctx, same, n)
+        await bind_nolisten(same, n)
     older = await ctx.raw("M/older")
     newer = await ctx.raw("M/newer")
-    await _bind_nolisten(ctx, newer, m)
+    await bind_nolisten(newer, m)
     got = await watcher.barrier()
     types = [t for t in (view_of(ctx, w).trigger for w in got) if t is not None]
     ctx.check(
@@ -131,7 +135,7 @@ async def takeover_by_connection(ctx: CaseContext) -> None:
         f"notices after N bound twice on one connection: {[t.type for t in types]}",
         expected="none: binding again on the primary connection is no takeover (OA-SESS-35)",
     )
-    await _bind_nolisten(ctx, older, m)
+    await bind_nolisten(older, m)
     await newer.expect_closed()
     restored = await watcher.expect_wakeup(what="Psyclone.Module.Restored notice of M")
     trigger = view_of(ctx, restored).trigger
@@ -181,17 +185,18 @@ async def primary_close_ends_callback(ctx: CaseContext) -> None:
 async def callback_ended(ctx: CaseContext) -> None:
     """Module A binds with BIND_NOLISTEN and its callback connection ends; module B's callback
     connection ends before B binds with BIND_NOLISTEN. Both register, a post wakes both, and
-    only after the time the server's retries may take (2.2 s at the default limits) each
-    opens a new callback connection.
+    only after the time the server's retries may take and a deadline (3 s at the default limits
+    and deadline; not applicable beyond 5 s) each opens a new callback connection.
 
     Catches: a server that keeps a callback connection that has ended as the module's (or as
     the one a name gets when it binds) and so treats each delivery as failed, abandoning it
     after its retries instead of holding it until the module opens a callback connection again
     (OA-SESS-5, OA-DELIV-8), issue #15.
     """
+    no_path = _no_path_s(ctx)
     a, b = ctx.name("A"), ctx.name("B")
     primary_a = await ctx.raw("A/primary")
-    await _bind_nolisten(ctx, primary_a, a)
+    await bind_nolisten(primary_a, a)
     # The server reads a connection's Receive frame before its end: each first callback
     # connection is the module's (or kept for the name) until it ends. The modules register
     # only then, so that nothing is in flight on a connection that ends.
@@ -200,14 +205,14 @@ async def callback_ended(ctx: CaseContext) -> None:
     primary_b = await ctx.raw("B/primary")
     await _end_callback(ctx, first_a, primary_a)
     await _end_callback(ctx, first_b, primary_b)
-    await _bind_nolisten(ctx, primary_b, b)
+    await bind_nolisten(primary_b, b)
     for name, primary in ((a, primary_a), (b, primary_b)):
         await _subscribe(ctx, primary, name, ctx.type("Go"))
     poster = await ctx.module("Poster", bind=False)
     await poster.post("WB1", ctx.type("Go"), "for A and B, who have no callback connection")
     assert poster.last_sent is not None
     go = poster.last_sent.id
-    await asyncio.sleep(_no_path_s(ctx))
+    await asyncio.sleep(no_path)
     for name, label in ((a, "A/callback2"), (b, "B/callback2")):
         callback, receive_id = await _open_callback(ctx, name, label)
         await _wakeup_for(ctx, callback, receive_id, name, go)

@@ -400,7 +400,8 @@ async def started_and_gaps(ctx: CaseContext) -> None:
     needs=_TYPED,
     allowed=(
         "AIR.Stream.Alarm.Idle (entry idle 300) no sooner than 300 ms after the sample was "
-        "sent and within the deadline after 400 ms; then Started for the next sample",
+        "sent and within the deadline after 400 ms, its time entry 300 ms or more after the "
+        "Started alarm's; then Started for the next sample",
     ),
 )
 async def idle_alarm(ctx: CaseContext) -> None:
@@ -416,13 +417,22 @@ async def idle_alarm(ctx: CaseContext) -> None:
     client = await StreamClient.open(ctx, name)
     sent = time.monotonic()
     await _add_seq(client, 1)
-    await watch.next("Started")
+    started = await watch.next("Started")
     entries = await watch.next("Idle", timeout=ctx.deadline + 0.4)
     elapsed = time.monotonic() - sent
     ctx.check(
         elapsed >= 0.3 and entries.get("idle") == "300",
         f"Idle came {elapsed * 1000:.0f} ms after the sample with the entries {entries}",
         expected="not before 300 ms, with the entry idle = 300 (OA-XSTREAM-7)",
+    )
+    # Both times are ms since the epoch on the server's clock (OA-XSTREAM-6): Idle's is 300 ms
+    # or more after Started's, and not much later than the case waited for it.
+    gap_ms = int(entries["time"]) - int(started["time"])
+    ctx.check(
+        300 <= gap_ms <= (elapsed + ctx.deadline) * 1000,
+        f"the Idle alarm's time is {gap_ms} ms after the Started alarm's ({started['time']})",
+        expected="300 ms or more, and within the time the case waited: both in ms since the "
+        "epoch (OA-XSTREAM-6)",
     )
     await _add_seq(client, 2)
     await watch.next("Started")

@@ -11,8 +11,9 @@ name (OA-SESS-6), and sees the server forget it when the lock it held is release
 
 from __future__ import annotations
 
-from openair.protocol.message import Message
-from openair_conformance.cases._common import esc
+import asyncio
+
+from openair_conformance.cases._common import bind_nolisten, esc
 from openair_conformance.cases._streams import (
     StreamClient,
     check_from,
@@ -21,7 +22,7 @@ from openair_conformance.cases._streams import (
     marker,
 )
 from openair_conformance.cases.streams_push import marked
-from openair_conformance.harness import CaseContext, RawConnection
+from openair_conformance.harness import CaseContext
 from openair_conformance.model import Fail, Inconclusive, Timing
 from openair_conformance.registry import case
 
@@ -33,16 +34,11 @@ def _long_ms(ctx: CaseContext) -> int:
     return int((ctx.deadline + ctx.grace) * 1000) + 2000
 
 
-async def _bind(raw: RawConnection, name: str) -> None:
-    reply = await raw.request(Message(type="BIND_NOLISTEN", sender=name, to="CNS"))
-    if reply.type != "BIND_ACCEPT":
-        raise Inconclusive(f"setup: BIND_NOLISTEN was answered {reply.type} {reply.content!r}")
-
-
 async def _unlocked(client: StreamClient) -> None:
-    """Ask GET_INFO until no sample is locked (the server learns of a close asynchronously)."""
+    """Ask GET_INFO until no sample is locked (the server learns of a close asynchronously),
+    pausing a little between the requests."""
     while (await client.info(req="OA-XSTREAM-5")).get("locked") != "0":
-        pass
+        await asyncio.sleep(min(0.02, client.ctx.deadline / 50))
 
 
 async def _taken_over(
@@ -50,7 +46,7 @@ async def _taken_over(
 ) -> None:
     """Bind `old`'s name on a new connection (a takeover, OA-SESS-6): the server closes `old`;
     return once it has forgotten it (`watch` sees no locked sample any more, OA-XSTREAM-5)."""
-    await _bind(await ctx.raw(suffix), old.sender)
+    await bind_nolisten(await ctx.raw(suffix), old.sender)
     try:
         await old.raw.expect_closed()
     except (Fail, Timing) as exc:
@@ -89,7 +85,7 @@ async def closed_waiter(ctx: CaseContext) -> None:
     first = await writer.add(b"before", [marker(ctx)], req="OA-XSTREAM-10")
     wait = f"WAIT_FOR_FIRST_AFTERID {_long_ms(ctx)}"
     gone = await StreamClient.open(ctx, name, "Gone")
-    await _bind(gone.raw, gone.sender)
+    await bind_nolisten(gone.raw, gone.sender)
     locked = await gone.request("LOCK_SAMPLES", f"{first}-{first}")
     if locked.type != "LOCKED":
         raise Inconclusive(f"setup: LOCK_SAMPLES was answered {locked.type} {locked.content!r}")

@@ -167,7 +167,9 @@ class ComponentCommands(RouterState):
         assert self._auth is not None
         to = msg.to or "CNS"
         board = to in self._whiteboards
-        post = board or (to not in self._components and to in self._modules)
+        # A whiteboard answers PING and KEEPALIVE itself: only a bound module makes them posts.
+        stored = board and msg.type not in ("PING", "KEEPALIVE")
+        post = stored or (to not in self._components and to in self._modules)
         refusal = self._auth.screen(
             conn, msg, receive=tag is FrameTag.RECEIVE, cns=to == "CNS", post=post
         )

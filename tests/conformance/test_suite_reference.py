@@ -38,7 +38,10 @@ LIMITED: dict[str, tuple[dict[str, int], ...]] = {
         {"delivery_retries": 4, "retry_deadline_ms": 100},
     ),
     "FRAME-018": ({"frame_deadline_ms": 400},),
-    "ATT-005": ({"max_frame_binary": 4096},),
+    # One server for both: LIM-051 retrieves exactly max-frame-binary, ATT-005 more.
+    **{case_id: ({"max_frame_binary": 4096},) for case_id in ("ATT-005", "LIM-051")},
+    # A server of its own: LIM-050 spends max-created-streams, which other cases would need.
+    "LIM-050": ({"max_created_streams": 4},),
     "DELIV-018": ({"ack_deadline_ms": 500},),
     # A server of its own: LIM-016 fills max-held-bytes with queued wakeups.
     "LIM-016": ({"max_held_bytes": 262_144},),
@@ -59,7 +62,7 @@ LIMITED: dict[str, tuple[dict[str, int], ...]] = {
                 "max_history_bytes": 60_000,
             },
         )
-        for case_id in ("LIM-001", "LIM-002", "LIM-003", "LIM-004")
+        for case_id in ("LIM-001", "LIM-002", "LIM-003", "LIM-004", "LIM-005")
     },
 }
 

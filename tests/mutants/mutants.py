@@ -35,6 +35,8 @@ import mutants_attachments
 import mutants_bounds
 import mutants_campaign_commands
 import mutants_campaign_delivery
+import mutants_campaign_limits
+import mutants_campaign_lookup
 import mutants_campaign_regwake
 import mutants_campaign_routing
 import mutants_campaign_sessions
@@ -71,6 +73,8 @@ MODULES = (
     mutants_bounds,
     mutants_campaign_commands,
     mutants_campaign_delivery,
+    mutants_campaign_limits,
+    mutants_campaign_lookup,
     mutants_campaign_regwake,
     mutants_campaign_routing,
     mutants_campaign_sessions,

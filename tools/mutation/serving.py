@@ -55,12 +55,16 @@ CASE_LIMITS: dict[str, tuple[Limits, ...]] = {
     "DELIV-003": ((("max_queue", 300),),),
     "DELIV-013": ((), _MORE_RETRIES),
     "FRAME-018": ((("frame_deadline_ms", 400),),),
-    "ATT-005": ((("max_frame_binary", 4096),),),
+    **{case_id: ((("max_frame_binary", 4096),),) for case_id in ("ATT-005", "LIM-051")},
+    "LIM-050": ((("max_created_streams", 4),),),
     "DELIV-018": ((("ack_deadline_ms", 500),),),
     "LIM-016": ((("max_held_bytes", 262_144),),),
     "LIM-041": ((("max_held_bytes", 262_144), ("max_history_bytes", 131_072)),),
     **{case_id: (_HELD_AND_RETENTION,) for case_id in ("LIM-014", "LIM-015")},
-    **{case_id: (_BYTE_BOUNDS,) for case_id in ("LIM-001", "LIM-002", "LIM-003", "LIM-004")},
+    **{
+        case_id: (_BYTE_BOUNDS,)
+        for case_id in ("LIM-001", "LIM-002", "LIM-003", "LIM-004", "LIM-005")
+    },
 }
 
 

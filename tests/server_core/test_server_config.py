@@ -171,6 +171,7 @@ def test_limits_advertised_in_table_order() -> None:
         "max-queue",
         "delivery-retries",
         "retry-deadline-ms",
+        "ack-deadline-ms",
         "max-triggers",
         "max-type-bytes",
         "max-type-segments",

@@ -181,6 +181,12 @@ class ModuleDelivery:
                     self._grant = await self._turn(attempt.item)
                 self._grant -= 1
                 conn = await self._choose()
+                while conn is not None and len(self._in_flight) >= self._window():
+                    # The window shrank while the task waited (the module bound again without
+                    # `pipelining`, OA-SESS-35): the attempt waits for room (OA-DELIV-5).
+                    self._flush()
+                    await self._wait_for_room()
+                    conn = await self._choose()
                 if conn is None:
                     self._failed(attempt, "no connection to the module")
                     continue

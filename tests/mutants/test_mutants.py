@@ -81,13 +81,30 @@ async def _reference_path(starting: Coroutine[Any, Any, Any]) -> Any:
     return server
 
 
+#: Cases that fill a server-wide budget (max-held-bytes) or need it empty: each runs on a fresh
+#: server of its own, as tools/mutation/serving.py and test_suite_reference.py give them.
+OWN_SERVER = frozenset({"LIM-014", "LIM-016", "LIM-041"})
+
+
 def _run_cases(
     limits: Limits, cases: Sequence[RegisteredCase], *, rerun_late: bool = False
 ) -> dict[str, CaseResult]:
-    """Run `cases` against a fresh server (the mutant's, when one is active).
+    """Run `cases` against a fresh server (the mutant's, when one is active); those of
+    `OWN_SERVER` each against one of their own.
 
     With `rerun_late` (the clean server only) a late case is run again alone (suite_runs).
     """
+    rest = [c for c in cases if c.info.id not in OWN_SERVER]
+    groups = ([rest] if rest else []) + [[c] for c in cases if c.info.id in OWN_SERVER]
+    results: dict[str, CaseResult] = {}
+    for group in groups:
+        results.update(_run_on_one_server(limits, group, rerun_late=rerun_late))
+    return results
+
+
+def _run_on_one_server(
+    limits: Limits, cases: Sequence[RegisteredCase], *, rerun_late: bool
+) -> dict[str, CaseResult]:
     with _serving(limits) as target:
         options = RunOptions(
             target=target,

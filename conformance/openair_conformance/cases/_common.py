@@ -368,3 +368,69 @@ async def next_request(
 async def ack(callback: RawConnection, msg: Message, name: str) -> None:
     """Acknowledge a delivery on a raw callback connection (RECEIVE_ACCEPT, OA-DELIV-4)."""
     await callback.send_message(msg.reply("RECEIVE_ACCEPT", sender=name))
+
+
+def subscribe_message(name: str, content_xml: str) -> Message:
+    """Return the AIR.Subscribe of `name` to AIRCentral with the registration `content_xml`."""
+    return Message(
+        type="AIR.Subscribe",
+        sender=name,
+        to="AIRCentral",
+        content=content_xml,
+        content_is_xml=True,
+        language="xml",
+    )
+
+
+async def raw_subscribe(raw: RawConnection, name: str, content_xml: str) -> Message:
+    """Send `subscribe_message(name, content_xml)` on `raw`; return the reply."""
+    return await raw.request(subscribe_message(name, content_xml))
+
+
+async def setup_raw_subscribe(raw: RawConnection, name: str, content_xml: str) -> None:
+    """`raw_subscribe` as a setup step: anything but RECEIVE_ACCEPT is INCONCLUSIVE."""
+    reply = await raw_subscribe(raw, name, content_xml)
+    if reply.type != "RECEIVE_ACCEPT":
+        raise Inconclusive(f"setup: AIR.Subscribe was answered {reply.type} {reply.content!r}")
+
+
+async def setup_raw_bind(
+    raw: RawConnection,
+    name: str,
+    port: int,
+    *,
+    extensions: tuple[str, ...] = (),
+    echoed: bool = False,
+) -> None:
+    """BIND `name` on `raw` with a tcplocation of `port` as a setup step (INCONCLUSIVE unless
+    BIND_ACCEPT, and with `echoed` unless its content is the port). `extensions` are declared
+    in the `extensions` slot (OA-SESS-19)."""
+    location = f'<tcplocation port="{port}"/>'
+    bind = Message(type="BIND", sender=name, to="CNS", content=location, content_is_xml=True)
+    if extensions:
+        bind = bind.with_extra("extensions", " ".join(extensions))
+    reply = await raw.request(bind)
+    if reply.type != "BIND_ACCEPT" or (echoed and reply.content.strip() != str(port)):
+        raise Inconclusive(f"setup: BIND was answered {reply.type} {reply.content!r}")
+
+
+async def setup_raw_bind_subscribe(
+    raw: RawConnection,
+    name: str,
+    port: int,
+    content_xml: str,
+    *,
+    extensions: tuple[str, ...] = (),
+    echoed: bool = False,
+) -> None:
+    """`setup_raw_bind` then `setup_raw_subscribe`: a module listening on `port`, registered."""
+    await setup_raw_bind(raw, name, port, extensions=extensions, echoed=echoed)
+    await setup_raw_subscribe(raw, name, content_xml)
+
+
+def stream_module_xml(ctx: CaseContext, name: str, stream: str) -> str:
+    """Return the registration of module `name` reading `stream` as input `In`, with only a
+    trigger that never fires (the case's Never type), so that all it gets is the push."""
+    never = f'<trigger from="WB1" type="{esc(ctx.type("Never"))}"/>'
+    inputs = f'<streams><inputstream alias="In" source="{esc(stream)}"/></streams>'
+    return f'<module name="{esc(name)}">{inputs}{never}</module>'

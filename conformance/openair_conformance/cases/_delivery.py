@@ -17,11 +17,10 @@ import time
 
 from openair.protocol.connection import ANSWER_FOR
 from openair.protocol.message import Message
-from openair_conformance.cases._common import triggers_xml
+from openair_conformance.cases._common import setup_raw_bind_subscribe, triggers_xml
 from openair_conformance.harness import CaseContext, RawConnection, TestModule
 from openair_conformance.harness.checks import is_phase_update, wakeup_trigger_id
 from openair_conformance.harness.conn import ConnectionLost, DecodeProblem, FramedStream
-from openair_conformance.model import Inconclusive
 
 __all__ = ["Dropper", "expect_attempts", "no_more_attempts", "retry_window", "setup_dropper"]
 
@@ -104,22 +103,7 @@ async def setup_dropper(
     primary = await ctx.raw("D/primary")
     dropper = Dropper(ctx, name=name, drops=drops, silent=silent)
     port = await dropper.listen(primary.stream.local_host)
-    location = f'<tcplocation port="{port}"/>'
-    bind = Message(type="BIND", sender=name, to="CNS", content=location, content_is_xml=True)
-    reply = await primary.request(bind)
-    if reply.type != "BIND_ACCEPT":
-        raise Inconclusive(f"setup: BIND was answered {reply.type} {reply.content!r}")
-    subscribe = Message(
-        type="AIR.Subscribe",
-        sender=name,
-        to="AIRCentral",
-        content=triggers_xml(ctx.type("Go")),
-        content_is_xml=True,
-        language="xml",
-    )
-    reply = await primary.request(subscribe)
-    if reply.type != "RECEIVE_ACCEPT":
-        raise Inconclusive(f"setup: AIR.Subscribe was answered {reply.type} {reply.content!r}")
+    await setup_raw_bind_subscribe(primary, name, port, triggers_xml(ctx.type("Go")))
     poster = await ctx.module("P")
     return dropper, poster, primary
 

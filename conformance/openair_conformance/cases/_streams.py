@@ -537,3 +537,56 @@ def check_sample(
         "and builtin:timestamp in place of the writer's first ones or appended (OA-STREAM-2, "
         "OA-STREAM-4)",
     )
+
+
+async def stamped(client: StreamClient, base: int, dt: int) -> int:
+    """Add a sample labelled T±dt with builtin:timestamp `base + dt`; return its id."""
+    return await client.add(f"T{dt:+}".encode(), [("builtin:timestamp", str(base + dt))])
+
+
+async def samples_by_time(
+    ctx: CaseContext, client: StreamClient, base: int, span: tuple[int, int], want: list[int]
+) -> None:
+    """GET_SAMPLES_BY_TIME [T+start, T+end] answers the ids `want`."""
+    start, end = span
+    content = (
+        f"<objectcollection><object>{time_xml(base + start)}</object>"
+        f"<object>{time_xml(base + end)}</object></objectcollection>"
+    )
+    reply = await client.request("GET_SAMPLES_BY_TIME", content, xml=True)
+    what = f"GET_SAMPLES_BY_TIME [T{start:+}, T{end:+}]"
+    got = [s.id for s in client.samples_of(reply, what, req="OA-STREAM-6")]
+    ctx.check(
+        got == want,
+        f"{what} answered {got}",
+        expected=f"{want}: every held sample stamped within the range, by id (OA-STREAM-6)",
+    )
+
+
+async def holds_exactly(
+    ctx: CaseContext,
+    client: StreamClient,
+    held: list[int],
+    gone: Sequence[int],
+    *,
+    count_req: str,
+    req: str,
+    why: str,
+    subject: str | None = None,
+) -> None:
+    """Fail unless the stream holds exactly the ids `held` (GET_COUNT under `count_req`,
+    GET_SAMPLE_BY_ID of each under `req`) and none of `gone` (SAMPLE_UNKNOWN under `req`).
+
+    The expectation reads "exactly the samples `held`" then `why`; the finding names the
+    stream as `subject` (default: the stream's name).
+    """
+    count = await client.number("GET_COUNT", "COUNT", req=count_req)
+    got = [(await client.get(i, req=req)).id for i in held]
+    ctx.check(
+        count == len(held) and got == held,
+        f"{client.stream if subject is None else subject} holds {count} samples; "
+        f"GET_SAMPLE_BY_ID of {held} found {got}",
+        expected=f"exactly the samples {held}{why}",
+    )
+    for sample_id in gone:
+        await client.unknown("GET_SAMPLE_BY_ID", str(sample_id), req=req)

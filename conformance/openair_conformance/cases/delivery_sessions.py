@@ -17,10 +17,11 @@ import socket
 from openair.protocol.connection import ANSWER_FOR
 from openair.protocol.message import Message
 from openair_conformance.cases._common import (
-    esc,
     next_request,
     raw_module,
+    setup_raw_bind_subscribe,
     setup_subscribe,
+    stream_module_xml,
     triggers_xml,
 )
 from openair_conformance.cases._delivery import Dropper, retry_window
@@ -119,22 +120,9 @@ async def port_at_primary_address(ctx: CaseContext) -> None:
         await primary.open()
         if primary.stream.local_host != source:
             raise Inconclusive(f"setup: the connection came from {primary.stream.local_host}")
-        location = f'<tcplocation port="{port}"/>'
-        bind = Message(type="BIND", sender=name, to="CNS", content=location, content_is_xml=True)
-        reply = await primary.request(bind)
-        if reply.type != "BIND_ACCEPT" or reply.content.strip() != str(port):
-            raise Inconclusive(f"setup: BIND was answered {reply.type} {reply.content!r}")
-        subscribe = Message(
-            type="AIR.Subscribe",
-            sender=name,
-            to="AIRCentral",
-            content=triggers_xml(ctx.type("Go")),
-            content_is_xml=True,
-            language="xml",
+        await setup_raw_bind_subscribe(
+            primary, name, port, triggers_xml(ctx.type("Go")), echoed=True
         )
-        reply = await primary.request(subscribe)
-        if reply.type != "RECEIVE_ACCEPT":
-            raise Inconclusive(f"setup: AIR.Subscribe was answered {reply.type} {reply.content!r}")
         poster = await ctx.module("P", bind=False)
         await poster.post("WB1", ctx.type("Go"), "there")
         assert poster.last_sent is not None
@@ -309,26 +297,13 @@ async def pushed_samples_retried(ctx: CaseContext) -> None:
     holder = _Holder(ctx, name=name)
     port = await holder.listen(primary.stream.local_host)
     try:
-        location = f'<tcplocation port="{port}"/>'
-        bind = Message(
-            type="BIND", sender=name, to="CNS", content=location, content_is_xml=True
-        ).with_extra("extensions", "pipelining")
-        reply = await primary.request(bind)
-        if reply.type != "BIND_ACCEPT":
-            raise Inconclusive(f"setup: BIND was answered {reply.type} {reply.content!r}")
-        never = f'<trigger from="WB1" type="{esc(ctx.type("Never"))}"/>'
-        inputs = f'<streams><inputstream alias="In" source="{esc(stream)}"/></streams>'
-        subscribe = Message(
-            type="AIR.Subscribe",
-            sender=name,
-            to="AIRCentral",
-            content=f'<module name="{esc(name)}">{inputs}{never}</module>',
-            content_is_xml=True,
-            language="xml",
+        await setup_raw_bind_subscribe(
+            primary,
+            name,
+            port,
+            stream_module_xml(ctx, name, stream),
+            extensions=("pipelining",),
         )
-        reply = await primary.request(subscribe)
-        if reply.type != "RECEIVE_ACCEPT":
-            raise Inconclusive(f"setup: AIR.Subscribe was answered {reply.type} {reply.content!r}")
         writer = await StreamClient.open(ctx, stream, "Writer")
         for label in _LABELS:
             await writer.add(label.encode(), [("conf:n", label)])

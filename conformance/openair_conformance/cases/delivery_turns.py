@@ -12,7 +12,13 @@ import asyncio
 from collections.abc import Awaitable
 
 from openair.protocol.message import Message
-from openair_conformance.cases._common import ack, esc, next_request, raw_module
+from openair_conformance.cases._common import (
+    ack,
+    next_request,
+    raw_module,
+    setup_raw_subscribe,
+    stream_module_xml,
+)
 from openair_conformance.cases._streams import StreamClient, create_stream, sample_label
 from openair_conformance.harness import CaseContext
 from openair_conformance.model import Inconclusive
@@ -52,19 +58,7 @@ async def samples_one_at_a_time(ctx: CaseContext) -> None:
     stream = await create_stream(ctx, raw, "Turns", idle=0)
     name = ctx.name("L")
     primary, callback, receive_id = await raw_module(ctx, "L")
-    never = f'<trigger from="WB1" type="{esc(ctx.type("Never"))}"/>'
-    inputs = f'<streams><inputstream alias="In" source="{esc(stream)}"/></streams>'
-    subscribe = Message(
-        type="AIR.Subscribe",
-        sender=name,
-        to="AIRCentral",
-        content=f'<module name="{esc(name)}">{inputs}{never}</module>',
-        content_is_xml=True,
-        language="xml",
-    )
-    reply = await primary.request(subscribe)
-    if reply.type != "RECEIVE_ACCEPT":
-        raise Inconclusive(f"setup: AIR.Subscribe was answered {reply.type} {reply.content!r}")
+    await setup_raw_subscribe(primary, name, stream_module_xml(ctx, name, stream))
     writer = await StreamClient.open(ctx, stream, "Writer")
 
     def take() -> Awaitable[Message]:

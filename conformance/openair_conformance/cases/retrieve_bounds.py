@@ -27,6 +27,10 @@ async def _post(poster: TestModule, to: str, type_: str, content: str) -> str:
     return poster.last_sent.id
 
 
+#: A generous size of one of LIM-040's stored posts, envelope included (OA-LIM-14 counts it).
+_HELD_NEEDED_PER_POST = 1024
+
+
 @case(
     id="LIM-040",
     title="A wakeup whose first retrieve fills max-wakeup-results gets nothing of the second",
@@ -50,6 +54,14 @@ async def wakeup_results_filled(ctx: CaseContext) -> None:
         raise NotApplicable(
             f"max-wakeup-results is {limit}; run against a server advertising at most "
             f"{_MAX_RESULTS} (the default is 1000)"
+        )
+    # Its posts stay stored (about 600 bytes each): a server holding far less refuses them
+    # rightly (OA-LIM-14), and other cases post beside it.
+    held = ctx.server.limit("max-held-bytes", 1 << 30)
+    if held < _HELD_NEEDED_PER_POST * (limit + 2) * 4:
+        raise NotApplicable(
+            f"max-held-bytes is {held}; the case stores {limit + 2} posts and needs a server "
+            f"holding at least four times their {_HELD_NEEDED_PER_POST * (limit + 2)} bytes"
         )
     reader = await ctx.module("Reader")
     poster = await ctx.module("Poster", bind=False)

@@ -19,6 +19,7 @@ from openair_conformance.cases._common import (
     cns_request,
     next_request,
     raw_module,
+    raw_subscribe,
     setup_subscribe,
     trigger_ids,
     triggers_xml,
@@ -183,15 +184,8 @@ async def takeover(ctx: CaseContext) -> None:
     notices = (f"Psyclone.Module.Restored.{name}", f"Psyclone.Module.Lost.{name}")
     await setup_subscribe(watcher, triggers_xml(*notices, wb="AIRCentral"))
     old_primary, old_callback, old_receive = await raw_module(ctx, "N")
-    subscribe = Message(
-        type="AIR.Subscribe",
-        sender=name,
-        to="AIRCentral",
-        content=triggers_xml(ctx.type("Go")),
-        content_is_xml=True,
-        language="xml",
-    )
-    if (await old_primary.request(subscribe)).type != "RECEIVE_ACCEPT":
+    go = triggers_xml(ctx.type("Go"))
+    if (await raw_subscribe(old_primary, name, go)).type != "RECEIVE_ACCEPT":
         ctx.note("the first session's registration was refused")
     # Acknowledge everything sent to the first session (a phase update may be on its way), so
     # that no delivery is in flight when the name is taken over.
@@ -424,15 +418,7 @@ async def nolisten_callback(ctx: CaseContext) -> None:
     """
     primary, callback, receive_id = await raw_module(ctx, "N")
     name = ctx.name("N")
-    subscribe = Message(
-        type="AIR.Subscribe",
-        sender=name,
-        to="AIRCentral",
-        content=triggers_xml(ctx.type("Go")),
-        content_is_xml=True,
-        language="xml",
-    )
-    reply = await primary.request(subscribe)
+    reply = await raw_subscribe(primary, name, triggers_xml(ctx.type("Go")))
     ctx.check(reply.type == "RECEIVE_ACCEPT", f"AIR.Subscribe: {reply.type}", expected="OA-REG-7")
     poster = await ctx.module("Poster", bind=False)
     await poster.post("WB1", ctx.type("Go"), "go")
@@ -465,15 +451,7 @@ async def callback_replaced(ctx: CaseContext) -> None:
         Message(type="RECEIVE_NAME_NOTIFICATION", sender=name), FrameTag.RECEIVE
     )
     await first.expect_closed()
-    subscribe = Message(
-        type="AIR.Subscribe",
-        sender=name,
-        to="AIRCentral",
-        content=triggers_xml(ctx.type("Go")),
-        content_is_xml=True,
-        language="xml",
-    )
-    await primary.request(subscribe)
+    await raw_subscribe(primary, name, triggers_xml(ctx.type("Go")))
     poster = await ctx.module("Poster", bind=False)
     await poster.post("WB1", ctx.type("Go"), "go", cc=name)
     wakeup = await next_request(ctx, second, receive_id=sent.id, name=name)

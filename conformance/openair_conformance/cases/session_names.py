@@ -16,6 +16,7 @@ from openair_conformance.cases._common import (
     bind_nolisten,
     next_request,
     raw_module,
+    setup_raw_subscribe,
     triggers_xml,
 )
 from openair_conformance.harness import CaseContext, RawConnection
@@ -31,17 +32,7 @@ async def _delivered_over(
     Shows the server has made `callback` the module's callback connection before the case goes
     on (a Receive frame gets no reply to wait for, OA-SESS-7).
     """
-    subscribe = Message(
-        type="AIR.Subscribe",
-        sender=name,
-        to="AIRCentral",
-        content=triggers_xml(ctx.type("Go")),
-        content_is_xml=True,
-        language="xml",
-    )
-    reply = await primary.request(subscribe)
-    if reply.type != "RECEIVE_ACCEPT":
-        raise Inconclusive(f"setup: AIR.Subscribe was answered {reply.type} {reply.content!r}")
+    await setup_raw_subscribe(primary, name, triggers_xml(ctx.type("Go")))
     poster = await ctx.module("Poster", bind=False)
     await poster.post("WB1", ctx.type("Go"), "go", cc=name)
     wakeup = await next_request(ctx, callback, receive_id=receive_id, name=name)

@@ -16,17 +16,16 @@ from __future__ import annotations
 from openair_conformance.cases._streams import (
     StreamClient,
     create_stream,
+    holds_exactly,
     past_window,
+    samples_by_time,
+    stamped,
     time_xml,
 )
 from openair_conformance.harness import CaseContext
 from openair_conformance.registry import case
 
 _TYPED = ("typed-streams",)
-
-
-async def _stamped(client: StreamClient, base: int, dt: int) -> int:
-    return await client.add(f"T{dt:+}".encode(), [("builtin:timestamp", str(base + dt))])
 
 
 async def _one(
@@ -45,36 +44,12 @@ async def _one(
     )
 
 
-async def _range(
-    ctx: CaseContext, client: StreamClient, base: int, span: tuple[int, int], want: list[int]
-) -> None:
-    """GET_SAMPLES_BY_TIME [T+start, T+end] answers the ids `want`."""
-    start, end = span
-    content = (
-        f"<objectcollection><object>{time_xml(base + start)}</object>"
-        f"<object>{time_xml(base + end)}</object></objectcollection>"
-    )
-    reply = await client.request("GET_SAMPLES_BY_TIME", content, xml=True)
-    what = f"GET_SAMPLES_BY_TIME [T{start:+}, T{end:+}]"
-    got = [s.id for s in client.samples_of(reply, what, req="OA-STREAM-6")]
-    ctx.check(
-        got == want,
-        f"{what} answered {got}",
-        expected=f"{want}: every held sample stamped within the range, by id (OA-STREAM-6)",
-    )
-
-
 async def _held(ctx: CaseContext, client: StreamClient, held: list[int], gone: int) -> None:
     """Fail unless the stream holds exactly the ids `held`, not `gone`."""
-    count = await client.number("GET_COUNT", "COUNT", req="OA-STREAM-9")
-    got = [(await client.get(i, req="OA-XSTREAM-2")).id for i in held]
-    ctx.check(
-        count == len(held) and got == held,
-        f"{client.stream} holds {count} samples; GET_SAMPLE_BY_ID of {held} found {got}",
-        expected=f"exactly the samples {held}: the soft limit drops the oldest unlocked "
-        "samples, never the newest (OA-XSTREAM-2)",
+    why = ": the soft limit drops the oldest unlocked samples, never the newest (OA-XSTREAM-2)"
+    await holds_exactly(
+        ctx, client, held, [gone], count_req="OA-STREAM-9", req="OA-XSTREAM-2", why=why
     )
-    await client.unknown("GET_SAMPLE_BY_ID", str(gone), req="OA-XSTREAM-2")
 
 
 @case(
@@ -106,25 +81,25 @@ async def lookups_after_inner_drop(ctx: CaseContext) -> None:
     )
     client = await StreamClient.open(ctx, name)
     base = past_window(ctx)
-    first = await _stamped(client, base, 100)
+    first = await stamped(client, base, 100)
     reply = await client.request("LOCK_SAMPLES", f"{first}-{first}")
     ctx.check(
         reply.type == "LOCKED",
         f"LOCK_SAMPLES {first}-{first} was answered {reply.type} {reply.content!r}",
         expected="LOCKED with a lock id (OA-XSTREAM-5)",
     )
-    ids = [first] + [await _stamped(client, base, dt) for dt in (0, 50)]
+    ids = [first] + [await stamped(client, base, dt) for dt in (0, 50)]
     ctx.check(ids == [1, 2, 3], f"the new stream gave the ids {ids}", expected="[1, 2, 3]")
     await _held(ctx, client, [1, 3], gone=2)
     for dt, want in ((100, 1), (60, 3)):
         await _one(ctx, client, "GET_SAMPLE_BY_TIME", base, dt, want)
     await client.unknown("GET_SAMPLE_BY_TIME", time_xml(base + 49), xml=True, req="OA-STREAM-6")
-    await _range(ctx, client, base, (90, 100), [1])
-    await _range(ctx, client, base, (40, 100), [1, 3])
+    await samples_by_time(ctx, client, base, (90, 100), [1])
+    await samples_by_time(ctx, client, base, (40, 100), [1, 3])
     await _one(ctx, client, "WAIT_FOR_FIRST_SAMPLE 0", base, 60, 1)
     await _one(ctx, client, "WAIT_FOR_LAST_SAMPLE 0", base, 60, 1)
-    await _stamped(client, base, 200)
+    await stamped(client, base, 200)
     await _held(ctx, client, [1, 4], gone=3)
     for dt, want in ((150, 1), (200, 4), (100, 1)):
         await _one(ctx, client, "GET_SAMPLE_BY_TIME", base, dt, want)
-    await _range(ctx, client, base, (100, 200), [1, 4])
+    await samples_by_time(ctx, client, base, (100, 200), [1, 4])

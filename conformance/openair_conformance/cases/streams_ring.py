@@ -15,7 +15,10 @@ from openair_conformance.cases._streams import (
     StreamClient,
     chunk,
     create_stream,
+    holds_exactly,
     past_window,
+    samples_by_time,
+    stamped,
     time_xml,
 )
 from openair_conformance.cases.streams_alarms import AlarmWatch
@@ -40,22 +43,11 @@ async def _by_time(ctx: CaseContext, client: StreamClient, base: int, dt: int, w
     )
 
 
-async def _range(
-    ctx: CaseContext, client: StreamClient, base: int, span: tuple[int, int], want: list[int]
-) -> None:
-    """GET_SAMPLES_BY_TIME [T+start, T+end] answers the ids `want`."""
-    start, end = span
-    content = (
-        f"<objectcollection><object>{time_xml(base + start)}</object>"
-        f"<object>{time_xml(base + end)}</object></objectcollection>"
-    )
-    reply = await client.request("GET_SAMPLES_BY_TIME", content, xml=True)
-    what = f"GET_SAMPLES_BY_TIME [T{start:+}, T{end:+}]"
-    got = [s.id for s in client.samples_of(reply, what, req="OA-STREAM-6")]
-    ctx.check(
-        got == want,
-        f"{what} answered {got}",
-        expected=f"{want}: every held sample stamped within the range, by id (OA-STREAM-6)",
+async def _held(ctx: CaseContext, client: StreamClient, held: list[int], gone: list[int]) -> None:
+    """Fail unless the stream holds exactly the ids `held` (and none of `gone`)."""
+    why = " (OA-STREAM-9, OA-XSTREAM-2)"
+    await holds_exactly(
+        ctx, client, held, gone, count_req="OA-STREAM-9", req="OA-STREAM-9", why=why
     )
 
 
@@ -70,23 +62,6 @@ async def _wait(
         f"{type} 0 T{dt:+} answered sample {got.id}",
         expected=f"sample {want} (the table of 11.5, OA-STREAM-7)",
     )
-
-
-async def _held(ctx: CaseContext, client: StreamClient, held: list[int], gone: list[int]) -> None:
-    """Fail unless the stream holds exactly the ids `held` (and none of `gone`)."""
-    count = await client.number("GET_COUNT", "COUNT", req="OA-STREAM-9")
-    got = [(await client.get(i, req="OA-STREAM-9")).id for i in held]
-    ctx.check(
-        count == len(held) and got == held,
-        f"{client.stream} holds {count} samples; GET_SAMPLE_BY_ID of {held} found {got}",
-        expected=f"exactly the samples {held} (OA-STREAM-9, OA-XSTREAM-2)",
-    )
-    for sample_id in gone:
-        await client.unknown("GET_SAMPLE_BY_ID", str(sample_id), req="OA-STREAM-9")
-
-
-async def _stamped(client: StreamClient, base: int, dt: int) -> int:
-    return await client.add(f"T{dt:+}".encode(), [("builtin:timestamp", str(base + dt))])
 
 
 @case(
@@ -116,24 +91,24 @@ async def ring_time_lookups(ctx: CaseContext) -> None:
     raw = await ctx.raw("Creator")
     client = await StreamClient.open(ctx, await create_stream(ctx, raw, "Ring", maxcount=3))
     base = past_window(ctx)
-    ids = [await _stamped(client, base, dt) for dt in (0, 10, 20)]
+    ids = [await stamped(client, base, dt) for dt in (0, 10, 20)]
     ctx.check(ids == [1, 2, 3], f"the new stream gave the ids {ids}", expected="[1, 2, 3]")
     for dt, want in ((-1, 0), (0, 1), (9, 1), (10, 2), (20, 3), (99, 3)):
         await _by_time(ctx, client, base, dt, want)
-    await _stamped(client, base, 5)
+    await stamped(client, base, 5)
     await _held(ctx, client, [2, 3, 4], gone=[1])
     for dt, want in ((7, 4), (12, 2), (25, 3), (4, 0)):
         await _by_time(ctx, client, base, dt, want)
-    await _range(ctx, client, base, (0, 12), [2, 4])
-    await _range(ctx, client, base, (6, 30), [2, 3])
+    await samples_by_time(ctx, client, base, (0, 12), [2, 4])
+    await samples_by_time(ctx, client, base, (6, 30), [2, 3])
     await _wait(ctx, client, "WAIT_FOR_LAST_SAMPLE", base, 6, 3)
     await _wait(ctx, client, "WAIT_FOR_FIRST_SAMPLE", base, 1, 2)
-    await _stamped(client, base, 30)
-    await _stamped(client, base, 40)
+    await stamped(client, base, 30)
+    await stamped(client, base, 40)
     await _held(ctx, client, [4, 5, 6], gone=[3])
     for dt, want in ((35, 5), (29, 4), (4, 0), (40, 6)):
         await _by_time(ctx, client, base, dt, want)
-    await _range(ctx, client, base, (5, 30), [4, 5])
+    await samples_by_time(ctx, client, base, (5, 30), [4, 5])
 
 
 async def _locked(ctx: CaseContext, client: StreamClient, want: int, why: str) -> None:

@@ -17,7 +17,7 @@ import time
 
 from openair.protocol.connection import ANSWER_FOR
 from openair.protocol.message import Message
-from openair_conformance.cases._common import setup_raw_bind_subscribe, triggers_xml
+from openair_conformance.cases._common import next_request, setup_raw_bind_subscribe, triggers_xml
 from openair_conformance.harness import CaseContext, RawConnection, TestModule
 from openair_conformance.harness.checks import is_phase_update, wakeup_trigger_id
 from openair_conformance.harness.conn import ConnectionLost, DecodeProblem, FramedStream
@@ -137,3 +137,25 @@ async def no_more_attempts(ctx: CaseContext, dropper: Dropper, allowed: int, why
         f"the delivery was attempted {len(dropper.attempts)} times ({why})",
         expected=f"exactly {allowed} attempts (OA-DELIV-7, OA-DELIV-15)",
     )
+
+
+async def accept_for(
+    ctx: CaseContext, conn: RawConnection, *, receive_id: str, name: str, seconds: float
+) -> list[str]:
+    """Acknowledge every delivery `conn` (the callback connection `receive_id` of module
+    `name`) gets within `seconds`; return their trigger ids (or types). Each read stays below
+    the reply deadline, so an absence is not a late reply."""
+    got: list[str] = []
+    loop = asyncio.get_running_loop()
+    until = loop.time() + seconds
+    while (left := until - loop.time()) > 0:
+        try:
+            msg = await asyncio.wait_for(
+                next_request(ctx, conn, receive_id=receive_id, name=name),
+                min(left, ctx.deadline / 2),
+            )
+        except TimeoutError:
+            continue
+        got.append(wakeup_trigger_id(msg) or msg.type)
+        await conn.send_message(msg.reply("RECEIVE_ACCEPT", sender=name))
+    return got

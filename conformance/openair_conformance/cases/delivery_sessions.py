@@ -24,7 +24,7 @@ from openair_conformance.cases._common import (
     stream_module_xml,
     triggers_xml,
 )
-from openair_conformance.cases._delivery import Dropper, retry_window
+from openair_conformance.cases._delivery import Dropper, accept_for, retry_window
 from openair_conformance.cases._streams import StreamClient, create_stream, sample_label
 from openair_conformance.harness import CaseContext, RawConnection
 from openair_conformance.harness.checks import is_phase_update, wakeup_trigger_id
@@ -185,21 +185,15 @@ async def queue_discarded_with_session(ctx: CaseContext) -> None:
     await poster.post("WB1", ctx.type("New"), "new", cc=name)
     assert poster.last_sent is not None
     new = poster.last_sent.id
-    got: list[str] = []
-    loop = asyncio.get_running_loop()
     # A stale delivery would come within a retry's start bound (OA-DELIV-15) of the session's
     # end; each read stays below the reply deadline, so an absence is not a late reply.
-    until = loop.time() + ctx.deadline + ctx.server.limit("retry-deadline-ms", 1000) / 1000
-    while (left := until - loop.time()) > 0:
-        try:
-            msg = await asyncio.wait_for(
-                next_request(ctx, again, receive_id=again_id, name=name),
-                min(left, ctx.deadline / 2),
-            )
-        except TimeoutError:
-            continue
-        got.append(wakeup_trigger_id(msg) or msg.type)
-        await again.send_message(msg.reply("RECEIVE_ACCEPT", sender=name))
+    got = await accept_for(
+        ctx,
+        again,
+        receive_id=again_id,
+        name=name,
+        seconds=ctx.deadline + ctx.server.limit("retry-deadline-ms", 1000) / 1000,
+    )
     stale = [t for t in got if t in old]
     ctx.check(
         not stale,

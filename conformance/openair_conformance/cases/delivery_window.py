@@ -7,10 +7,8 @@ so the case knows the delivery failed and a retry is waiting its back-off when t
 
 from __future__ import annotations
 
-import asyncio
-
-from openair_conformance.cases._common import next_request, raw_module
-from openair_conformance.cases._delivery import retry_window, setup_dropper
+from openair_conformance.cases._common import raw_module
+from openair_conformance.cases._delivery import accept_for, retry_window, setup_dropper
 from openair_conformance.harness import CaseContext
 from openair_conformance.harness.checks import wakeup_trigger_id
 from openair_conformance.registry import case
@@ -52,21 +50,11 @@ async def retry_discarded_with_session(ctx: CaseContext) -> None:
     _, again, again_id = await raw_module(ctx, "D")  # the same name, a new session
     retries, _ = retry_window(ctx)
     retry_s = ctx.server.limit("retry-deadline-ms", 1000) / 1000
-    got: list[str] = []
-    loop = asyncio.get_running_loop()
     # Each retry of the old wakeup starts within retry-deadline-ms of the failure before it
     # (OA-DELIV-15); each read stays below the reply deadline.
-    until = loop.time() + ctx.deadline + retries * retry_s
-    while (left := until - loop.time()) > 0:
-        try:
-            msg = await asyncio.wait_for(
-                next_request(ctx, again, receive_id=again_id, name=name),
-                min(left, ctx.deadline / 2),
-            )
-        except TimeoutError:
-            continue
-        got.append(wakeup_trigger_id(msg) or msg.type)
-        await again.send_message(msg.reply("RECEIVE_ACCEPT", sender=name))
+    got = await accept_for(
+        ctx, again, receive_id=again_id, name=name, seconds=ctx.deadline + retries * retry_s
+    )
     ctx.check(
         old not in got,
         f"the new session of D got the old session's wakeup for {old} ({got})",

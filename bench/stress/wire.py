@@ -159,7 +159,11 @@ class Canary:
 
 def ping_forever(port: int, period_s: float) -> None:
     """The canary process: PING the server, print `began ms` per answer, until killed."""
-    with socket.create_connection(("127.0.0.1", port), timeout=10.0) as sock:
+    # From another loopback address than the attacks: the canary is another host's client,
+    # and the server shares its time between peer addresses (--fair-slice-ms).
+    with socket.create_connection(
+        ("127.0.0.1", port), timeout=10.0, source_address=("127.0.0.2", 0)
+    ) as sock:
         ping = frame_of(Message(type="PING", to="CNS", sender="Canary"))
         reader = FrameReader()
         while True:

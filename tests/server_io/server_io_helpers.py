@@ -48,8 +48,10 @@ class Raw:
         self.eof = False
 
     @classmethod
-    async def open(cls, port: int) -> Raw:
-        reader, writer = await asyncio.open_connection("127.0.0.1", port)
+    async def open(cls, port: int, *, local: str | None = None) -> Raw:
+        """Connect to the server on 127.0.0.1; from the loopback address `local` when given."""
+        bind = (local, 0) if local is not None else None
+        reader, writer = await asyncio.open_connection("127.0.0.1", port, local_addr=bind)
         return cls(reader, writer)
 
     def write(self, data: bytes) -> None:

@@ -7,6 +7,7 @@ one the lxml writer would send. Nothing sleeps: the worker waits for the test to
 
 from __future__ import annotations
 
+import asyncio
 import threading
 from typing import Any
 
@@ -17,6 +18,7 @@ from openair.protocol.codec import to_frame
 from openair.protocol.framing import encode_frame
 from openair.protocol.message import Message
 from openair.protocol.objects import encode_message_collection, parse_message_collection
+from openair.server.aio import protocol as protocol_module
 from openair.server.core import commands as commands_module
 from openair.server.core import retrieve as retrieve_module
 from openair.server.core import router_commands as router_module
@@ -138,6 +140,14 @@ def test_a_status_of_many_names_is_written_off_the_loop(monkeypatch: pytest.Monk
         return original(*args, **kwargs)
 
     monkeypatch.setattr(commands_module, "status_reply", held)
+    encoders: list[str] = []
+    encode = router_module.encode_frame
+
+    def encoding(*args: Any, **kwargs: Any) -> bytes:
+        encoders.append(threading.current_thread().name)
+        return encode(*args, **kwargs)
+
+    monkeypatch.setattr(router_module, "encode_frame", encoding)  # encoded there too
 
     async def body() -> None:
         server = await serving()
@@ -162,3 +172,47 @@ def test_a_status_of_many_names_is_written_off_the_loop(monkeypatch: pytest.Monk
 
     run(body)
     assert len(threads) == 1 and threads[0] != threading.current_thread().name
+    assert encoders == threads
+
+
+def test_a_large_reply_is_written_a_slice_at_a_time_as_the_peer_reads() -> None:
+    """Issue #19: a 12 MiB retrieve reply to a peer that does not read is not handed to the
+    transport at once (a copy of all of it in one callback, and all of it buffered): the
+    server's write buffer stays near its high-water mark until the peer reads, and then the
+    whole reply comes, followed by the answer to the request sent after it (OA-SESS-2)."""
+    posts, size = 6000, 2 * KIB
+
+    async def body() -> None:
+        server = await serving()
+        poster, reader = await Raw.open(server.port), await Raw.open(server.port)
+        for start in range(0, posts, 500):
+            for i in range(start, start + 500):
+                poster.send(Message(type=f"Test.{i}", to="WB1", sender="P", content="x" * size))
+            for _ in range(500):
+                assert (await poster.recv()) is not None
+        transport = reader.writer.transport
+        transport.pause_reading()  # the peer reads nothing for now
+        reader.send(_retrieve())
+        reader.send(Message(type="PING", to="CNS", sender="R"))
+        local = reader.writer.get_extra_info("sockname")[1]
+        conn = next(c for c in server._conns.values() if c.peer[1] == local)
+        for _ in range(int(BOUND / 0.01)):  # until the reply waits for the peer to read
+            if conn._sliced is not None and conn._reading_paused:
+                break
+            await asyncio.sleep(0.01)
+        assert conn._sliced is not None, "the reply was not written in slices"
+        high = server.options.flow.high_water
+        assert conn.transport is not None
+        assert conn.transport.get_write_buffer_size() <= high + protocol_module._SLICE
+        transport.resume_reading()
+        first, second = await reader.recv(), await reader.recv()
+        assert first is not None and first.type == "AIR.Retrieve.Success"
+        found = parse_message_collection(first.content)
+        assert len(found) == posts and found[0].type == f"Test.{posts - 1}"
+        assert second is not None and second.type == "PING_SUCCESS"
+        assert conn._sliced is None
+        for raw in (poster, reader):
+            await raw.close()
+        await server.stop()
+
+    run(body, bound=120.0)

@@ -281,6 +281,15 @@ def _monitor_line(server: Server) -> str:
     help="How long a delivery may wait for its acknowledgement before it has failed: its "
     "connection is closed and it is retried (OA-DELIV-11).",
 )
+@click.option(
+    "--fair-slice-ms",
+    default=ServerOptions().fair_slice_s * 1000,
+    show_default=True,
+    type=click.FloatRange(0, 1000),
+    help="The processor time the connections of one peer address may take in one turn of the "
+    "event loop before they wait for the next (0: no limit). Bounds how long one client's "
+    "burst keeps every other client waiting.",
+)
 @budget_options  # --max-queue-bytes … --frame-total-deadline-ms (OA-LIM-8 to OA-LIM-13)
 def serve(
     host: str,
@@ -304,6 +313,7 @@ def serve(
     delivery_retries: int,
     retry_deadline_ms: int,
     ack_deadline_ms: int,
+    fair_slice_ms: float,
     budgets: dict[str, int],
 ) -> None:
     """Run the OpenAIR reference server until SIGINT or SIGTERM.
@@ -338,6 +348,7 @@ def serve(
         http_port=http_port,
         monitor_post=monitor_post,
         monitor_hosts=_hosts(monitor_hosts),
+        fair_slice_s=fair_slice_ms / 1000,
         **_secure(auth_path, tls_cert, tls_key, monitor_options=bool(http_port or monitor_post)),
         limits=ServerLimits(
             stream_push_buffer=stream_push_buffer,

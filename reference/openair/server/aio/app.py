@@ -34,6 +34,7 @@ from openair.protocol.message import Message
 from openair.server.aio.budgets import quiet_accept_errors
 from openair.server.aio.clusternode import ClusterNode, join_cluster
 from openair.server.aio.dispatcher import Dispatcher
+from openair.server.aio.fairness import Turns
 from openair.server.aio.internal import InternalModules, start_internal
 from openair.server.aio.observed import ObservedView
 from openair.server.aio.options import (
@@ -155,6 +156,9 @@ class Server:
             push_buffer_bytes=options.limits.stream_push_buffer_bytes,  # OA-LIM-16
         )
         self.budget = Budget(options.limits)  # OA-LIM-11, OA-LIM-12
+        loop = asyncio.get_running_loop()
+        #: Each peer address's slice of a loop turn (issue #19); None: no fairness.
+        self.turns = Turns(options.fair_slice_s, loop.call_soon) if options.fair_slice_s else None
         self.delivered_total = 0
         self.dropped_total: dict[str, int] = {
             "QUEUE_OVERFLOW": 0,
@@ -481,7 +485,19 @@ class Server:
         counters["delivered"] = self.delivered_total
         counters["dropped"] = dict(self.dropped_total)
         counters["budget"] = self.budget.counters()  # OA-LIM-11, OA-LIM-12
+        counters["fairness"] = self._fairness()
         return counters
+
+    def _fairness(self) -> dict[str, object]:
+        """How often a peer's connection waited for a later loop turn (issue #19)."""
+        turns = self.turns
+        if turns is None:
+            return {"slice_ms": 0, "deferred": 0, "waiting": 0}
+        return {
+            "slice_ms": turns.slice * 1000,
+            "deferred": turns.deferred,
+            "waiting": turns.waiting,
+        }
 
     def _status_counters(self) -> dict[str, object]:
         """The adapter's counters that STATUS adds to the router's (for monitors)."""
@@ -491,6 +507,7 @@ class Server:
             "delivered": self.delivered_total,
             "dropped": dict(self.dropped_total),
             "budget": self.budget.counters(),  # OA-LIM-11, OA-LIM-12
+            "fairness": self._fairness(),
         }
 
     async def serve_forever(self) -> None:

@@ -16,7 +16,8 @@ turn — are the shared sans-I/O `openair.protocol.connection.Connection` (`self
 * `pairing.Requester` — in the other roles every frame is a reply, paired with its request;
 * `writer.FrameWriter` — encoding, batching, OA-LIM-5's replies in flight;
 * `timers.ConnectionTimers` — frame deadlines (OA-FRAME-12, OA-LIM-13) and KEEPALIVE (OA-KEEP-1);
-* the bytes-level data path (issue #20), offered every read first.
+* the bytes-level data path (issue #20), offered every read first;
+* `fairness.Turns` — each peer address a bounded slice of every loop turn (issue #19).
 
 Flow control follows uvicorn's helper: when the transport's write buffer passes its high-water
 mark the connection stops reading, and reads again under the low-water mark; a peer that does not
@@ -28,7 +29,9 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import math
 import time
+from collections.abc import Callable
 
 from openair.protocol.connection import SERVER_RULES, Connection, Role
 from openair.protocol.errors import (
@@ -43,6 +46,7 @@ from openair.protocol.message import Message
 from openair.protocol.xmlsafe import XmlLimits
 from openair.server.aio.connhost import ConnectionHost
 from openair.server.aio.datapath import DataPath, datapath_of
+from openair.server.aio.fairness import Turns
 from openair.server.aio.pairing import Requester, Waiter, Wire, fail_waiter
 from openair.server.aio.responder import Responder
 from openair.server.aio.timers import ConnectionTimers
@@ -55,6 +59,8 @@ log = logging.getLogger("openair.server")
 
 #: First bytes that make a main-port connection an HTTP one (the monitor, as psyProbe was;
 #: OA-EXT-3 requires GET/HEAD/POST and allows the others).
+#: How much of a large reply goes to the transport at a time (`send_sliced`, issue #19).
+_SLICE = 256 * 1024
 _HTTP_METHODS = (b"GET ", b"HEAD ", b"POST ", b"PUT ", b"OPTIONS ", b"DELETE ")
 
 
@@ -85,6 +91,16 @@ class ServerConnection(asyncio.Protocol):
         self._closing = False
         self._reading_paused = False  # the peer reads slower than we answer
         self._held_paused = False  # a request holds the ones behind it
+        self._turn_paused = False  # this peer spent its slice: waiting for a later turn
+        self._in_turn = False  # `turn_ends` was set by the caller (a read, or the turn)
+        self._turn_ns = 0  # when the oldest bytes waiting for that turn arrived (OA-TIME-3)
+        self._last_read = 0  # bytes of the last read (what reading again will likely cost)
+        #: A large reply being written a slice at a time: (frame, written so far, then call).
+        self._sliced: tuple[memoryview, int, Callable[[], None]] | None = None
+        self._slice_due = False  # a call to `_write_slices` is scheduled
+        #: When this peer's slice of the loop turn runs out (`Turns.clock`); frame loops stop
+        #: there and wait for a later turn (issue #19). Infinite without fairness.
+        self.turn_ends = math.inf
         self.last_byte = time.monotonic()  # when the peer's last bytes arrived
         self.last_traffic = self.last_byte
         self.timers = ConnectionTimers(self)  # frame deadlines, idle KEEPALIVE
@@ -94,6 +110,7 @@ class ServerConnection(asyncio.Protocol):
         self._partial = 0  # unfinished-frame bytes counted in the budget (OA-LIM-12)
         # The bytes-level data path offered every read first (issue #20); None: the reference.
         self._datapath: DataPath | None = datapath_of(host)
+        self.turns: Turns | None = getattr(host, "turns", None)
 
     @property
     def role(self) -> Role:
@@ -130,24 +147,63 @@ class ServerConnection(asyncio.Protocol):
         self.last_byte = self.last_traffic = time.monotonic()
         if self.frames_in == 0 and self._taken_by_http(data):
             return
+        turns = self.turns
+        if turns is None:
+            self._take(data, received_ns)
+            return
+        peer = self.peer[0]
+        began = turns.clock()
+        self._last_read = len(data)
+        if not turns.may_run(peer):
+            # This peer spent its slice of the turn (issue #19): keep the bytes, act later.
+            if self._feed_reader(data) and self._hold_partial():
+                self._wait_turn(received_ns)
+            turns.charge(peer, turns.clock() - began + len(data) * turns.read_cost)
+            return
+        self.turn_ends = turns.deadline(peer) - len(data) * turns.read_cost
+        self._in_turn = True
+        try:
+            self._take(data, received_ns)
+        finally:
+            self._in_turn = False
+            turns.charge(peer, turns.clock() - began + len(data) * turns.read_cost)
+
+    def _take(self, data: bytes, received_ns: int) -> None:
+        """Act on one read: the data path first, then the reader and the reference path."""
         if self._datapath is not None and not self.responder.held:
             data = self._datapath.feed(self, data, received_ns)  # issue #20: bytes level first
+        if self._feed_reader(data):
+            self.process(received_ns)
+
+    def _feed_reader(self, data: bytes) -> bool:
+        """Buffer `data` in the frame reader; False (and closed) after a framing error."""
         try:
             self.reader.feed(data)
         except RemoteProtocolError as exc:
             self._framing_error(exc)
-            return
-        self.process(received_ns)
+            return False
+        return True
 
     def process(self, received_ns: int) -> None:
-        """Act on every complete frame buffered, unless a request holds the connection."""
+        """Act on the complete frames buffered, unless a request holds the connection.
+
+        With fairness (issue #19) it stops when this peer's slice of the loop turn is spent
+        and the connection waits for a later turn; otherwise it takes every complete frame.
+        """
         responder = self.responder
+        turns = self.turns
+        if turns is not None and not self._in_turn:
+            self.turn_ends = turns.deadline(self.peer[0])
+        clock = turns.clock if turns is not None else None
+        out_of_turn = False
         try:
-            while (
-                not self._closing
-                and not responder.held
-                and (frame := self.reader.next_frame()) is not None
-            ):
+            while not self._closing and not responder.held:
+                if clock is not None and clock() > self.turn_ends:
+                    out_of_turn = True
+                    break
+                frame = self.reader.next_frame()
+                if frame is None:
+                    break
                 self.frames_in += 1
                 if self.machine.role is Role.RESPONDER:
                     responder.on_request(frame, received_ns)
@@ -159,15 +215,58 @@ class ServerConnection(asyncio.Protocol):
         if responder.held and not self._held_paused and self.transport is not None:
             self._held_paused = True  # buffer no more than the frames already read
             self.transport.pause_reading()
-        self._hold_partial()
+        if self._hold_partial() and out_of_turn and self.reader.buffered:
+            self._wait_turn(received_ns)
         self.timers.arm_deadline()
+
+    def _wait_turn(self, received_ns: int) -> None:
+        """Read nothing more until this peer's next slice of a loop turn (issue #19)."""
+        if self._turn_paused or self._closing or self.turns is None:
+            return
+        self._turn_paused = True
+        self._turn_ns = received_ns
+        if self.transport is not None:
+            self.transport.pause_reading()
+        self.turns.wait(self.peer[0], self._take_turn)
+
+    def _take_turn(self) -> None:
+        """This peer's turn: act on what was kept, then read again (issue #19)."""
+        turns = self.turns
+        if not self._turn_paused or self._closing or turns is None:
+            return
+        self._turn_paused = False
+        peer = self.peer[0]
+        began = turns.clock()
+        self.turn_ends = turns.deadline(peer)
+        self._in_turn = True
+        try:
+            if self._datapath is not None and not self.responder.held:
+                # The kept bytes go through the data path again when few (RESPLICE_MAX).
+                rest = self._datapath.feed(self, b"", self._turn_ns)
+                if not self._feed_reader(rest):
+                    return
+            self.process(self._turn_ns)
+        finally:
+            self._in_turn = False
+            # Reading again lets the next read happen in the next turn: charged now, so a
+            # turn does not let every waiting connection of a peer read at once.
+            turns.charge(peer, turns.clock() - began + self._last_read * turns.read_cost)
+        self._read_again()
+
+    def _read_again(self) -> None:
+        """Resume reading unless a slow reader, a held request or a turn still stops it."""
+        if (
+            self.transport is not None
+            and not self._closing
+            and not (self._reading_paused or self._held_paused or self._turn_paused)
+        ):
+            self.transport.resume_reading()
 
     def release_hold(self) -> None:
         """Read again after a request stopped holding the ones behind it."""
         if self._held_paused and self.transport is not None:
             self._held_paused = False
-            if not self._reading_paused:
-                self.transport.resume_reading()
+            self._read_again()
 
     def _hold_partial(self) -> bool:
         """Count the bytes still buffered after processing in the server's budget (OA-LIM-12).
@@ -236,8 +335,8 @@ class ServerConnection(asyncio.Protocol):
     def resume_writing(self) -> None:
         if self.transport is not None and self._reading_paused and not self._closing:
             self._reading_paused = False
-            if not self._held_paused:
-                self.transport.resume_reading()
+            self._read_again()
+            self._next_slice()
 
     # -- sending --------------------------------------------------------------------------------
 
@@ -272,6 +371,48 @@ class ServerConnection(asyncio.Protocol):
             self.abort()
             return False
         return True
+
+    def send_sliced(self, wire: bytes, done: Callable[[], None]) -> None:
+        """Write a large reply's frame a slice at a time, then call `done` (issue #19).
+
+        A slice goes out whenever the transport is under its high-water mark, so one callback
+        copies at most about that much; the rest follows as the peer reads (`resume_writing`).
+        Nothing else is written on the connection meanwhile: the responder holds it.
+        """
+        self._sliced = (memoryview(wire), 0, done)
+        self._write_slices()
+
+    def _next_slice(self) -> None:
+        """Write the next slice in the next loop turn (one pending call at most)."""
+        if not self._slice_due and self._sliced is not None:
+            self._slice_due = True
+            asyncio.get_running_loop().call_soon(self._write_slices)
+
+    def _write_slices(self) -> None:
+        self._slice_due = False
+        if self._sliced is None:
+            return
+        view, pos, done = self._sliced
+        transport = self.transport
+        if self._closing or transport is None:
+            self._sliced = None
+            return
+        # One slice per loop turn: a peer that reads as fast as we write would otherwise take
+        # the whole frame in one callback. pause_writing (the transport past its high-water
+        # mark) stops it until resume_writing.
+        if pos < len(view) and not self._reading_paused:
+            end = min(pos + _SLICE, len(view))
+            self.writer.write_part(transport, view[pos:end])
+            pos = end
+        self.last_traffic = time.monotonic()
+        if pos < len(view):
+            self._sliced = (view, pos, done)
+            if not self._reading_paused:
+                self._next_slice()
+            return
+        self._sliced = None
+        self.writer.end_reply()
+        done()
 
     def encode(self, msg: Message, tag: FrameTag) -> tuple[bytes, ...]:
         """The frame of `msg` as parts to write (`writer.encode_parts`; a subclass may differ)."""

@@ -45,6 +45,8 @@ log = logging.getLogger("openair.server")
 #: They take the lxml path, which lets go of the interpreter lock while it parses; the regular
 #: expressions of the fast path hold it (12 ms per MiB), which would stall the loop all the same.
 OFF_LOOP_XML = 256 * 1024
+#: A reply written off the loop and larger than this goes to the transport a slice at a time.
+SLICED_REPLY = 1024 * 1024
 
 
 class Responder:
@@ -205,8 +207,19 @@ class Responder:
             self.conn.abort()
             return
         reply, wire = done.result()
+        if wire is not None and len(wire) > SLICED_REPLY:
+            # Written a slice at a time as the peer reads: handing the transport megabytes at
+            # once copies them all in one callback (issue #19, item 6). Held until the end.
+            self.decoding = 1
+            self.conn.send_sliced(wire, self._sliced_done)
+            return
         self.conn.send(reply, wire=wire)
         self._resume()
+
+    def _sliced_done(self) -> None:
+        self.decoding = 0
+        if not self.conn.is_closing:
+            self._resume()
 
 
 def _is_notification(msg: Message, outcome: Outcome) -> bool:

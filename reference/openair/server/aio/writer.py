@@ -72,6 +72,15 @@ class FrameWriter:
         self._unflushed.append(self.written)
         return transport.get_write_buffer_size()
 
+    def write_part(self, transport: asyncio.Transport, part: memoryview) -> None:
+        """Write a slice of a reply written in slices (issue #19); `end_reply` ends it."""
+        transport.write(part)
+        self.written += len(part)
+
+    def end_reply(self) -> None:
+        """Count a reply written with `write_part` until it is flushed (OA-LIM-5)."""
+        self._unflushed.append(self.written)
+
     def write_request(self, transport: asyncio.Transport, parts: Sequence[bytes], size: int) -> int:
         """Batch a request for the end of this loop turn; return the bytes buffered."""
         if not self._batch:

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from openair.protocol.auth import AUTH_ACCEPT, AUTH_NONCE
+from openair.protocol.codec import to_frame
 from openair.protocol.connection import answer_type
 from openair.protocol.content import TcpLocation
 from openair.protocol.errors import (
@@ -19,7 +20,7 @@ from openair.protocol.errors import (
     OpenAIRError,
     StreamUnknownError,
 )
-from openair.protocol.framing import FrameTag
+from openair.protocol.framing import FrameTag, encode_frame
 from openair.protocol.message import Message
 from openair.protocol.objects import encode_tcplocation
 from openair.server.core import commands as cmd
@@ -243,13 +244,13 @@ class ComponentCommands(RouterState):
             expired = dropped.get("EXPIRED", 0) if isinstance(dropped, Mapping) else 0
             counters["Deliveries"] = {"Expired": expired}
         if self.defer_large_replies and len(self._counters) >= _LARGE_STATUS:
-            # Thousands of names take a second to write: on a worker (issue #19, item 7). The
-            # counters are a copy taken now, so the reply is still of this moment.
+            # Thousands of names take a second to write: built and encoded on a worker (issue
+            # #19, item 7). The counters are a copy taken now, so the reply is of this moment.
             def later() -> tuple[Message, bytes | None]:
                 reply = cmd.status_reply(
                     msg, started_ns=started, now_ns=now_ns, modules=modules, counters=counters
                 )
-                return reply, None
+                return reply, encode_frame(to_frame(reply))
 
             return Outcome(later=later)
         answer = cmd.status_reply(

@@ -16,6 +16,7 @@ decoder; see DESIGN-NOTES "2026-11-28 — a bytes-level data path"):
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from openair.protocol.fastcodec import fast_decode
@@ -101,7 +102,10 @@ class PurePath:
         limits = conn.xml_limits
         max_xml = min(conn.host.limits.frame_limits().max_xml, OFF_LOOP_XML - 1)
         pos = 0
+        clock = _clock_of(conn)
         for start, end in self.split(buf, 0, max_xml):
+            if clock is not None and clock() > conn.turn_ends:
+                break  # this peer's slice of the loop turn is spent (issue #19)
             msg = fast_decode(buf[start:end], (), limits)
             if msg is None:
                 break  # the reference decoder decides (and reports any error, OA-ERR-2)
@@ -123,7 +127,10 @@ class PurePath:
         if limits.max_depth < 2:
             return 0
         pos = 0
+        clock = _clock_of(conn)
         for start, end in self.split(buf, 0, limits.max_bytes):
+            if clock is not None and clock() > conn.turn_ends:
+                break  # this peer's slice of the loop turn is spent (issue #19)
             if not _callback_next(conn) or ACK_XML.fullmatch(buf, start, end) is None:
                 break
             pos = end
@@ -133,6 +140,12 @@ class PurePath:
             if conn.is_closing:
                 break
         return pos
+
+
+def _clock_of(conn: ServerConnection) -> Callable[[], float] | None:
+    """The clock of the connection's fairness turns (issue #19); None without fairness."""
+    turns = conn.turns
+    return None if turns is None else turns.clock
 
 
 def _callback_next(conn: ServerConnection) -> bool:

@@ -175,31 +175,22 @@ class Monitor:
         self._sampler = None
         if self._closed:
             return
-        counters = self.server.counters()
+        # The live modules only: every name the retention keeps (OA-LIM-15) would make each
+        # sample cost milliseconds of the loop per thousand names (issue #19, item 7).
+        tables = self.server.rate_counters()
         values: dict[str, int] = {}
-        boards = counters.get("whiteboards")
-        if isinstance(boards, Mapping):
-            for name, c in boards.items():
-                values[f"wb:{name}"] = int(c.get("received", 0))
-        modules = counters.get("modules")
-        if isinstance(modules, Mapping):
-            for name, c in modules.items():
-                values[f"out:{name}"] = int(c.get("requests", 0))
-                values[f"in:{name}"] = int(c.get("delivered", 0))
-        for name, info in self.streams(counters).items():
-            added = info.get("added", "")
-            if added.isdigit():
-                values[f"stream:{name}"] = int(added)
+        for table in tables.values():
+            values.update(table)
         self.rates.sample(self._loop.time(), values)
-        self._note_bound(counters)
+        self._note_bound({name[4:] for name in tables.get("modules", {}) if name[:4] == "out:"})
         self._sampler = self._loop.call_later(self.options.sample_s, self._sample)
 
-    def _note_bound(self, counters: Mapping[str, object]) -> None:
+    def _note_bound(self, bound: set[str]) -> None:
         """Remember when each (module, connection) was first seen bound; forget the gone ones."""
         now_ms = time.time_ns() // _NS_PER_MS
         server = self.server
         seen: set[tuple[str, int | None]] = set()
-        for name in self.bound_names(counters):
+        for name in bound:
             info = server.module(name)
             if info is not None:
                 key = (name, info.conn)

@@ -1,8 +1,8 @@
 """Run the attacks of issue #19 against a fresh `openair serve` and print a verdict for each.
 
 `python -m bench.stress [NAME ...]` (NAME: part of an attack's name). The server runs in a
-subprocess with the budgets below; each attack is preceded by a quiet canary period, and its
-verdict is:
+subprocess with the budgets below; each attack is preceded by a quiet canary period (and an
+attack that ends sooner than `MIN_ATTACK_S` is repeated until then), and its verdict is:
 
 * held — the bound held, the server is alive, its RSS grew by at most the attack's budget
   (the configured budgets it spends) plus 20 %, and the canary's p99 stayed under 10 x the
@@ -27,6 +27,10 @@ from bench.stress.attacks import ATTACKS, RETENTION_MS, Attack, Figures
 from bench.stress.wire import Canary, p99
 
 QUIET_S = 1.5
+#: An attack shorter than this is repeated until it has run this long: with the canary's PING
+#: every 5 ms that is some 400 round trips, so the 99th percentile is not just the slowest one.
+MIN_ATTACK_S = 2.0
+WARMUP_S = 2.0
 _DEGRADED_RATIO = 10.0
 #: Issue #19: "RSS bounded by the configured budgets (within 20 %)". A budget counts payload
 #: bytes; the allocator's rounding and the buffers around them come on top.
@@ -86,10 +90,16 @@ async def _one(
     base = _rss_mib(proc.pid)
     peak, stop = [base], asyncio.Event()
     sampler = asyncio.create_task(_peak_rss(proc.pid, peak, stop))
+    rounds = 0
     try:
-        figures: Figures = await asyncio.wait_for(attack(canary.port), 300.0)
+        while True:  # a short attack again and again: a p99 needs some hundreds of round trips
+            figures: Figures = await asyncio.wait_for(attack(canary.port), 300.0)
+            rounds += 1
+            if not figures.held or time.monotonic() - began >= MIN_ATTACK_S:
+                break
     except Exception as exc:  # an attack that fails is reported, the others still run
         figures = Figures(held=False, notes={"error": repr(exc)[:120]})
+    figures.notes["rounds"] = rounds
     ended = time.monotonic()
     took = ended - began
     stop.set()
@@ -127,6 +137,9 @@ async def _main(filters: Sequence[str]) -> int:
     # and decoding megabytes in Python) would otherwise be timed as the server's unfairness. A
     # real attacker is another host; what is measured is how the server shares its own time.
     os.nice(19)
+    # The canary's first round trips (a fresh process, a fresh server) are slower than its
+    # steady ones: they would make the first attack's quiet series, and its ratio, flattering.
+    await asyncio.sleep(WARMUP_S)
     ok = True
     try:
         for name, item, attack, budget, setup in chosen:

@@ -89,7 +89,7 @@ class Canary:
     """
 
     port: int
-    period_s: float = 0.02
+    period_s: float = 0.005
     samples: list[tuple[float, float]] = field(default_factory=list)
     timeouts: int = 0
     _proc: subprocess.Popen[str] | None = None

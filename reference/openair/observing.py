@@ -192,6 +192,11 @@ class ObservedServer(Protocol):
     def counters(self) -> dict[str, object]:
         """Nested counters: `whiteboards`, `modules`, `queues`, `streams` tables and totals."""
 
+    def rate_counters(self) -> dict[str, dict[str, int]]:
+        """What to sample for rates, flat: `whiteboards` (`wb:NAME` received), `modules`
+        (`out:NAME` requests and `in:NAME` delivered of the modules bound now), `streams`
+        (`stream:NAME` samples added). Costs what is live, not every name kept."""
+
     def observe(self, observer: ServerObserver) -> Callable[[], None]:
         """Attach `observer`; return the function that detaches it."""
 

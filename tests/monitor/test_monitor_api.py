@@ -308,3 +308,27 @@ def test_latency_is_recorded_when_the_dispatcher_reports_deliveries() -> None:
             await writer.close()
 
     run(go)
+
+
+def test_rates_sample_the_bound_modules_only() -> None:
+    """Issue #19, item 7: a sample costs what is live, however many gone names are kept."""
+
+    async def go() -> None:
+        async with serving() as (server, _):
+            stays = await module(server, "Stays", "Test.*")
+            goes = await module(server, "Goes")
+            await goes.post("WB1", "Test.A", "one")
+            await woken(stays, "Test.A")
+            await goes.close()
+            for _ in range(int(BOUND / 0.01)):
+                if server.router.module("Goes") is None:
+                    break
+                await asyncio.sleep(0.01)
+            sampled = server.rate_counters()
+            assert set(sampled["modules"]) == {"out:Stays", "in:Stays"}
+            assert sampled["modules"]["in:Stays"] >= 1
+            assert "Goes" in server.counters()["modules"]  # still kept (OA-LIM-15)
+            assert sampled["whiteboards"]["wb:WB1"] == 1
+            await stays.close()
+
+    run(go)

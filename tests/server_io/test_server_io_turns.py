@@ -9,6 +9,7 @@ without it (`fair_slice_s=0`) one socket read of the burst — hundreds of posts
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import Callable
 
 import pytest
@@ -154,3 +155,33 @@ def test_without_fairness_a_whole_read_of_the_burst_goes_first() -> None:
     stored, acked = _stored_when_another_address_asks(0.0)
     assert acked == _POSTS
     assert stored >= 300, stored
+
+
+def test_modules_that_leave_together_are_all_forgotten_in_their_turns() -> None:
+    """What the server does when a module goes is its peer's work, done in later turns when the
+    peer's slice is spent: every module is unbound in the end, none is forgotten twice."""
+    names = [f"Leaver{i}" for i in range(60)]
+
+    async def body() -> None:
+        server = await serving(ServerOptions(fair_slice_s=0.00005))
+        assert server.turns is not None
+        raws = [await Raw.open(server.port) for _ in names]
+        for raw, name in zip(raws, names, strict=True):
+            reply = await raw.request(Message(type="BIND_NOLISTEN", to="CNS", sender=name))
+            assert reply.type == "BIND_ACCEPT", reply
+        before = server.turns.deferred
+        for raw in raws:
+            raw.writer.close()  # all at once
+        for _ in range(500):
+            if not server._conns and all(server.router.module(n) is None for n in names):
+                break
+            await asyncio.sleep(0.01)
+        assert all(server.router.module(n) is None for n in names)
+        assert not server._conns
+        assert server.turns.deferred > before  # some waited for a later turn
+        other = await Raw.open(server.port, local="127.0.0.2")
+        await other.ping()
+        await other.close()
+        await server.stop()
+
+    run(body)

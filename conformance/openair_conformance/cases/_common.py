@@ -91,10 +91,10 @@ def esc(text: str) -> str:
     return "".join(_ESCAPES.get(ch, ch) for ch in text)
 
 
-def parse_xml(data: bytes) -> etree._Element:
+def parse_xml(data: bytes | bytearray) -> etree._Element:
     """Parse XML the server sent, without DTDs or entities (ValueError if not well-formed)."""
     try:
-        return etree.fromstring(data, _PARSER)
+        return etree.fromstring(bytes(data), _PARSER)
     except etree.XMLSyntaxError as exc:
         raise ValueError(str(exc)) from exc
 

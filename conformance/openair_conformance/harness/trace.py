@@ -66,7 +66,9 @@ class Trace:
         """Append a note (what the suite did or concluded) and return its index."""
         return self.add(conn, "note", "", text)
 
-    def frame(self, conn: str, direction: str, tag: str, xml: bytes, chunks: int = 0) -> int:
+    def frame(
+        self, conn: str, direction: str, tag: str, xml: bytes | bytearray, chunks: int = 0
+    ) -> int:
         """Append a frame's XML (and how many binary chunks followed it)."""
         text = xml.decode("utf-8", errors="backslashreplace")
         if chunks:

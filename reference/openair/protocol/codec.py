@@ -59,7 +59,7 @@ _LISTED_EXTRAS = frozenset({"extensions"})
 
 
 def decode_message(
-    xml: bytes,
+    xml: bytes | bytearray,
     chunks: tuple[bytes, ...] = (),
     limits: XmlLimits | None = None,
     *,
@@ -74,14 +74,15 @@ def decode_message(
     of refusing it: what a client does with the deliveries and replies it receives (OA-MSG-19);
     a server validating a post leaves it False (OA-MSG-6).
     """
-    fast = fast_decode(xml, chunks, limits, clamp_priority=clamp_priority)
-    if fast is not None:
-        return fast
+    if isinstance(xml, bytes):  # a bytearray is a large frame's own buffer: lxml's to read
+        fast = fast_decode(xml, chunks, limits, clamp_priority=clamp_priority)
+        if fast is not None:
+            return fast
     return decode_with_lxml(xml, chunks, limits, clamp_priority=clamp_priority)
 
 
 def decode_with_lxml(
-    xml: bytes,
+    xml: bytes | bytearray,
     chunks: tuple[bytes, ...] = (),
     limits: XmlLimits | None = None,
     *,

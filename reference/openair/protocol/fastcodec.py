@@ -490,7 +490,7 @@ def _encodable(msg: Message, xml_content: bool) -> bool:
     ref = msg.inreplyto
     if ref is not None:
         texts += (ref.id, ref.type, ref.sender, ref.to, ref.cc, ref.stored)
-    return _NOT_XML_CHAR.search("".join(texts)) is None  # OA-MSG-14: lxml raises
+    return not grammar.has_non_xml_char("".join(texts))  # OA-MSG-14: lxml raises
 
 
 def fast_encode_str(msg: Message, *, xml_content: bool = False) -> str | None:

@@ -28,6 +28,7 @@ __all__ = [
     "WS",
     "clip",
     "decimal_text",
+    "has_non_xml_char",
     "read_decimal",
     "read_integer",
     "read_time",
@@ -46,6 +47,22 @@ DIGITS = re.compile(r"[0-9]+")
 DECIMAL = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)")
 #: A character XML 1.0 does not allow (OA-MSG-14).
 NOT_XML_CHAR = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+#: The ASCII characters XML 1.0 allows: tab, newline, carriage return, and 0x20 on.
+_XML_ASCII = bytes([9, 10, 13, *range(0x20, 0x80)])
+
+
+def has_non_xml_char(text: str) -> bool:
+    """Whether `text` holds a character XML 1.0 does not allow (OA-MSG-14).
+
+    ASCII text (most of it) is checked at memory speed: the bytes that are left once the allowed
+    ones are deleted. The expression reads 150 MB/s, 7 ms for a megabyte of content on the
+    event loop (issue #19); this is ten times faster. Other text takes the expression.
+    """
+    if text.isascii():
+        return bool(text.encode("ascii").translate(None, _XML_ASCII))
+    return NOT_XML_CHAR.search(text) is not None
+
+
 #: `sec` is a signed 64-bit integer (OA-TIME-1).
 MAX_SEC = 2**63 - 1
 MIN_SEC = -(2**63)

@@ -488,6 +488,10 @@ class Server:
         counters["fairness"] = self._fairness()
         return counters
 
+    def rate_counters(self) -> dict[str, dict[str, int]]:
+        """What a monitor samples for rates, in time of the live modules only (issue #19)."""
+        return self.router.rate_counters()
+
     def _fairness(self) -> dict[str, object]:
         """How often a peer's connection waited for a later loop turn (issue #19)."""
         turns = self.turns

@@ -65,6 +65,9 @@ class ObservedView:
     def counters(self) -> dict[str, object]:
         return self._server.counters()
 
+    def rate_counters(self) -> dict[str, dict[str, int]]:
+        return self._server.rate_counters()
+
     def whiteboard(self, name: str) -> StoredBoard | None:
         return self._server.router.whiteboard(name)
 

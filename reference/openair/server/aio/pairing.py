@@ -13,6 +13,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import weakref
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -111,7 +112,7 @@ def consume(future: asyncio.Future[Message]) -> None:
         future.exception()
 
 
-def salvage(xml: bytes, limits: XmlLimits) -> tuple[str, str]:
+def salvage(xml: bytes | bytearray, limits: XmlLimits) -> tuple[str, str]:
     """Return the `id` and `from` of a message that failed to decode, when they can be read.
 
     OA-SESS-1: the error reply's `isresponse` is the request's id, empty when unreadable.
@@ -130,10 +131,17 @@ class Requester:
     awaiting one; answers a PING or KEEPALIVE the peer sends out of turn (OA-SESS-10, OA-KEEP-2).
     """
 
-    __slots__ = ("conn",)
+    __slots__ = ("_conn",)
 
     def __init__(self, conn: ServerConnection) -> None:
-        self.conn = conn
+        self._conn = weakref.ref(conn)  # weak: no cycle with the connection (see Responder)
+
+    @property
+    def conn(self) -> ServerConnection:
+        """The connection these requests go out on."""
+        conn = self._conn()
+        assert conn is not None, "a caller outlived the connection"
+        return conn
 
     def send_request(self, msg: Message, wire: Wire | None = None) -> asyncio.Future[Message]:
         """Send a request; return its reply's future.

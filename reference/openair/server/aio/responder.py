@@ -19,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
+import weakref
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -52,13 +53,23 @@ SLICED_REPLY = 1024 * 1024
 class Responder:
     """Routes the requests of one connection and keeps their answers in order."""
 
-    __slots__ = ("conn", "decoding", "eof", "waiting")
+    __slots__ = ("_conn", "decoding", "eof", "waiting")
 
     def __init__(self, conn: ServerConnection) -> None:
-        self.conn = conn
+        # Weak: a connection and its parts would otherwise form a cycle that only the garbage
+        # collector frees, in pauses of tens of ms after a flood of connections (issue #19).
+        # The callbacks that may outlive the connection's other owners hold it themselves.
+        self._conn = weakref.ref(conn)
         self.waiting: int | None = None  # the ticket of a WAIT_FOR_* in progress (OA-STREAM-7)
         self.decoding = 0  # XML bytes of a request decoded off the loop (1: a reply to come)
         self.eof = False  # the peer closed its side while a request was decoded
+
+    @property
+    def conn(self) -> ServerConnection:
+        """The connection whose requests these are."""
+        conn = self._conn()
+        assert conn is not None, "a callback outlived its connection"
+        return conn
 
     @property
     def held(self) -> bool:
@@ -155,7 +166,13 @@ class Responder:
         future = loop.run_in_executor(
             off_loop_executor(), decode_with_lxml, frame.xml, frame.chunks, self.conn.xml_limits
         )
-        future.add_done_callback(lambda done: self._decoded(done, frame, received_ns))
+        conn = self.conn
+
+        def decoded(done: asyncio.Future[Message]) -> None:
+            assert conn is not None  # the callback holds the connection until it has run
+            self._decoded(done, frame, received_ns)
+
+        future.add_done_callback(decoded)
 
     def _decoded(self, done: asyncio.Future[Message], frame: Frame, received_ns: int) -> None:
         """Route a request decoded off the loop, then take the frames behind it again."""
@@ -180,7 +197,13 @@ class Responder:
         """
         self.decoding = 1
         future = asyncio.get_running_loop().run_in_executor(off_loop_executor(), later)
-        future.add_done_callback(self._replied)
+        conn = self.conn
+
+        def replied(done: asyncio.Future[tuple[Message, bytes | None]]) -> None:
+            assert conn is not None  # the callback holds the connection until it has run
+            self._replied(done)
+
+        future.add_done_callback(replied)
 
     def _reply_when_done(self, pending: AwaitedReply) -> None:
         """Answer once a cluster's store or another node did; later requests wait (OA-SESS-2).
@@ -188,7 +211,13 @@ class Responder:
         The loop goes on serving every other connection meanwhile (spec 17).
         """
         self.decoding = 1
-        asyncio.wrap_future(pending.done).add_done_callback(lambda _: self._done(pending))
+        conn = self.conn
+
+        def done(_: object) -> None:
+            assert conn is not None  # the callback holds the connection until it has run
+            self._done(pending)
+
+        asyncio.wrap_future(pending.done).add_done_callback(done)
 
     def _done(self, pending: AwaitedReply) -> None:
         self.decoding = 0

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import time
+import weakref
 from typing import TYPE_CHECKING
 
 from openair.protocol.errors import FrameTruncatedError
@@ -29,14 +30,20 @@ __all__ = ["ConnectionTimers"]
 class ConnectionTimers:
     """The deadline and KEEPALIVE timers of `conn` (owned by it, cancelled when it closes)."""
 
-    __slots__ = ("_conn", "_deadline", "_frame_began", "_frame_no", "_keepalive")
+    __slots__ = ("_deadline", "_frame_began", "_frame_no", "_keepalive", "_ref")
 
     def __init__(self, conn: ServerConnection) -> None:
-        self._conn = conn
+        self._ref = weakref.ref(conn)  # weak: no cycle with the connection (see Responder)
         self._deadline: asyncio.TimerHandle | None = None
         self._keepalive: asyncio.TimerHandle | None = None
         self._frame_began = 0.0  # monotonic time of the current frame's first byte
         self._frame_no = -1  # conn.frames_in when that frame began (-1: no frame begun)
+
+    @property
+    def _conn(self) -> ServerConnection:
+        conn = self._ref()
+        assert conn is not None, "a timer outlived its connection (cancel() was not called)"
+        return conn
 
     def cancel(self) -> None:
         """Stop both timers (the connection is gone)."""

@@ -84,6 +84,28 @@ class ComponentCommands(RouterState):
             "notices_failed": self._lost_notices,
         }
 
+    def rate_counters(self) -> dict[str, dict[str, int]]:
+        """The counters a monitor samples for rates, at the cost of what is live (issue #19).
+
+        `whiteboards` (received per whiteboard), `modules` (requests and delivered of the
+        modules bound now: a module gone has no rate, however many names the retention keeps,
+        OA-LIM-15) and `streams` (samples added per stream), each flat `kind:name` -> int.
+        """
+        counters = self._counters
+        modules: dict[str, int] = {}
+        for name in self._modules:
+            c = counters.get(name)
+            modules[f"out:{name}"] = c.requests if c is not None else 0
+            modules[f"in:{name}"] = c.delivered if c is not None else 0
+        return {
+            "whiteboards": {f"wb:{wb.name}": wb.received for wb in self._whiteboards.values()},
+            "modules": modules,
+            "streams": {
+                f"stream:{name}": stream.added_total
+                for name, stream in self.streams.streams.items()
+            },
+        }
+
     def _component_tables(self) -> dict[str, dict[str, Handler]]:
         """Return each system component's commands (spec 6.2)."""
         session = {"PING": self._ping, "KEEPALIVE": self._keepalive}  # OA-SESS-10, OA-KEEP-2

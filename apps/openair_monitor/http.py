@@ -267,6 +267,12 @@ class HttpConnection(asyncio.Protocol):
         if self.on_close is not None:
             self.on_close()
         self.app.closed(self)
+        # asyncio (3.11) keeps a bound method of a socket transport on the transport: a cycle
+        # that only the garbage collector frees, in pauses of the server's loop after many
+        # connections (issue #19). Dropped here, the transport goes by reference counting.
+        state = getattr(self.transport, "__dict__", None)
+        if state is not None and state.get("_read_ready_cb") is not None:
+            state["_read_ready_cb"] = None
 
     def pause_writing(self) -> None:
         self._paused = True

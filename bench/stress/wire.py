@@ -162,7 +162,7 @@ def ping_forever(port: int, period_s: float) -> None:
     # From another loopback address than the attacks: the canary is another host's client,
     # and the server shares its time between peer addresses (--fair-slice-ms).
     with socket.create_connection(
-        ("127.0.0.1", port), timeout=10.0, source_address=("127.0.0.2", 0)
+        ("127.0.0.1", port), timeout=10.0, source_address=("127.0.0.9", 0)
     ) as sock:
         ping = frame_of(Message(type="PING", to="CNS", sender="Canary"))
         reader = FrameReader()

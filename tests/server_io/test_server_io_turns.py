@@ -10,6 +10,7 @@ without it (`fair_slice_s=0`) one socket read of the burst — hundreds of posts
 from __future__ import annotations
 
 import asyncio
+import math
 from collections.abc import Callable
 
 import pytest
@@ -33,7 +34,10 @@ class _Clock:
 
 def _turns(slice_s: float = 1.0) -> tuple[Turns, _Clock, list[Callable[[], None]]]:
     clock, soon = _Clock(), []
-    return Turns(slice_s, soon.append, clock), clock, soon
+    turns = Turns(slice_s, soon.append, clock)
+    turns.enter("a")
+    turns.enter("b")  # two addresses: someone to be fair to
+    return turns, clock, soon
 
 
 def _next_turn(soon: list[Callable[[], None]]) -> None:
@@ -52,6 +56,18 @@ def test_a_peer_runs_until_its_slice_of_the_turn_is_spent() -> None:
     assert turns.may_run("b")  # another address is not held by a's work
     _next_turn(soon)  # a new turn: every slice is whole again
     assert turns.may_run("a")
+
+
+def test_with_one_address_open_nothing_is_counted_or_deferred() -> None:
+    turns, _, _ = _turns()
+    turns.leave("b")
+    turns.charge("a", 5.0)
+    assert turns.may_run("a") and turns.deadline("a") == math.inf
+    turns.enter("b")
+    assert not turns.may_run("a")  # shared again: a's slice is spent
+    turns.leave("b")
+    turns.leave("a")
+    assert not turns.shared
 
 
 def test_the_deadline_is_what_is_left_of_the_slice() -> None:
@@ -169,19 +185,41 @@ def test_modules_that_leave_together_are_all_forgotten_in_their_turns() -> None:
         for raw, name in zip(raws, names, strict=True):
             reply = await raw.request(Message(type="BIND_NOLISTEN", to="CNS", sender=name))
             assert reply.type == "BIND_ACCEPT", reply
+        other = await Raw.open(server.port, local="127.0.0.2")  # someone to be fair to
+        await other.ping()
         before = server.turns.deferred
         for raw in raws:
             raw.writer.close()  # all at once
         for _ in range(500):
-            if not server._conns and all(server.router.module(n) is None for n in names):
+            if len(server._conns) == 1 and all(server.router.module(n) is None for n in names):
                 break
             await asyncio.sleep(0.01)
         assert all(server.router.module(n) is None for n in names)
-        assert not server._conns
+        assert len(server._conns) == 1  # the other address's
         assert server.turns.deferred > before  # some waited for a later turn
-        other = await Raw.open(server.port, local="127.0.0.2")
         await other.ping()
         await other.close()
+        await server.stop()
+
+    run(body)
+
+
+def test_with_every_connection_from_one_address_a_burst_never_waits() -> None:
+    async def body() -> None:
+        server = await serving(ServerOptions(fair_slice_s=0.00005))
+        assert server.turns is not None
+        flood = await Raw.open(server.port)
+        flood.write(
+            b"".join(
+                encode_frame(to_frame(Message(type=f"Test.F{i}", to="WB1", sender="F")))
+                for i in range(500)
+            )
+        )
+        for _ in range(500):
+            reply = await flood.recv()
+            assert reply is not None and reply.type == "RECEIVE_ACCEPT"
+        assert server.turns.deferred == 0
+        await flood.close()
         await server.stop()
 
     run(body)

@@ -8,7 +8,8 @@ each peer address spend in the current turn. Once a peer has spent its slice, it
 stop taking frames: each pauses reading, keeps what it read, and waits in its peer's queue. At
 the start of the next turn the waiting peers are served round robin, each again up to its
 slice. A peer that has not spent its slice is served at once, so a client from another address
-waits for at most about one slice of the busy peer's work, not for all of it.
+waits for at most about one slice of the busy peer's work, not for all of it. While every open
+connection comes from one address there is no one to be fair to: nothing waits then.
 
 Frames are still acted on in the order they arrived on each connection (OA-SESS-2): a waiting
 connection reads nothing more until its turn comes. The slice is `openair serve
@@ -20,6 +21,7 @@ its slice end sooner.
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 from collections.abc import Callable
@@ -50,14 +52,38 @@ class Turns:
         self._waiting: dict[str, deque[Callable[[], None]]] = {}
         self._turn_scheduled = False
         self.deferred = 0  # times a connection had to wait for a later turn (STATUS, monitor)
+        #: Open connections per peer address: with one address there is no one to be fair to,
+        #: and nothing is counted or deferred (a benchmark on one machine pays nothing).
+        self._peers: dict[str, int] = {}
+
+    def enter(self, peer: str) -> None:
+        """Count a connection from `peer` opened."""
+        self._peers[peer] = self._peers.get(peer, 0) + 1
+
+    def leave(self, peer: str) -> None:
+        """Count a connection from `peer` closed."""
+        left = self._peers.get(peer, 0) - 1
+        if left > 0:
+            self._peers[peer] = left
+        else:
+            self._peers.pop(peer, None)
+
+    @property
+    def shared(self) -> bool:
+        """Whether connections from more than one address are open (fairness applies)."""
+        return len(self._peers) > 1
 
     def deadline(self, peer: str) -> float:
         """Return the `clock` time at which `peer`'s slice of this turn runs out."""
+        if not self.shared:
+            return math.inf
         return self.clock() + self.slice - self._spent.get(peer, 0.0)
 
     def may_run(self, peer: str) -> bool:
         """Whether `peer` may act now: nothing of it waits, and its slice is not spent."""
-        return peer not in self._waiting and self._spent.get(peer, 0.0) < self.slice
+        if peer in self._waiting:
+            return False
+        return not self.shared or self._spent.get(peer, 0.0) < self.slice
 
     def charge(self, peer: str, seconds: float) -> None:
         """Count `seconds` of work for `peer` in this turn."""

@@ -62,7 +62,7 @@ class ServerOptions:
     flow: FlowLimits = field(default_factory=FlowLimits)
     backlog: int = 1024
     # Each peer address's slice of a loop turn (issue #19, `fairness.Turns`); 0: no fairness.
-    fair_slice_s: float = 0.002
+    fair_slice_s: float = 0.001
     # The web monitor (issue #9, spec 15.2 `monitor`): HTTP on the main port when a connection
     # starts with an HTTP method, and on `http_port` when given. Read-only unless monitor_post.
     monitor: bool = True

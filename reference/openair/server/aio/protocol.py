@@ -135,6 +135,8 @@ class ServerConnection(asyncio.Protocol):
         self.peer = (str(peer[0]), int(peer[1])) if peer else ("", 0)
         # The transport's own marks drive pause_writing/resume_writing (the flow-control helper).
         transport.set_write_buffer_limits(self.host.flow.high_water, self.host.flow.low_water)
+        if self.turns is not None:
+            self.turns.enter(self.peer[0])
         if self.role is Role.RESPONDER:
             self.conn_id = self.host.connection_opened(self)
         else:
@@ -148,8 +150,8 @@ class ServerConnection(asyncio.Protocol):
         if self.frames_in == 0 and self._taken_by_http(data):
             return
         turns = self.turns
-        if turns is None:
-            self._take(data, received_ns)
+        if turns is None or not (turns.shared or turns.waiting):
+            self._take(data, received_ns)  # no one to be fair to
             return
         peer = self.peer[0]
         began = turns.clock()
@@ -194,7 +196,7 @@ class ServerConnection(asyncio.Protocol):
         turns = self.turns
         if turns is not None and not self._in_turn:
             self.turn_ends = turns.deadline(self.peer[0])
-        clock = turns.clock if turns is not None else None
+        clock = turns.clock if turns is not None and self.turn_ends != math.inf else None
         out_of_turn = False
         try:
             while not self._closing and not responder.held:
@@ -298,6 +300,8 @@ class ServerConnection(asyncio.Protocol):
         if not data[:8].startswith(_HTTP_METHODS) or not self.host.http_takeover(self, data):
             return False
         self._closing = True  # the monitor owns the transport now
+        if self.turns is not None:
+            self.turns.leave(self.peer[0])  # no connection_lost comes for it here
         return True
 
     def eof_received(self) -> bool | None:
@@ -332,6 +336,8 @@ class ServerConnection(asyncio.Protocol):
 
     def _lost(self) -> None:
         """Tell the server the connection is gone (in this peer's turn), then `closed`."""
+        if self.turns is not None and self.transport is not None:
+            self.turns.leave(self.peer[0])
         if self.role is not Role.OUTBOUND:
             turns = self.turns
             began = turns.clock() if turns is not None else 0.0

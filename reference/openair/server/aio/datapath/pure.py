@@ -16,6 +16,7 @@ decoder; see DESIGN-NOTES "2026-11-28 — a bytes-level data path"):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -145,7 +146,7 @@ class PurePath:
 def _clock_of(conn: ServerConnection) -> Callable[[], float] | None:
     """The clock of the connection's fairness turns (issue #19); None without fairness."""
     turns = conn.turns
-    return None if turns is None else turns.clock
+    return None if turns is None or conn.turn_ends == math.inf else turns.clock
 
 
 def _callback_next(conn: ServerConnection) -> bool:

@@ -175,6 +175,44 @@ def collection_xml(msgs: Sequence[Message], copies: EncodedCopies | None = None)
     return f"<objectcollection>{inner}</objectcollection>"
 
 
+def collection_parts(msgs: Sequence[Message], copies: EncodedCopies | None = None) -> list[str]:
+    """Return `collection_xml(msgs)` as the pieces that joined make it: one per message."""
+    if not msgs:
+        return [_EMPTY_COLLECTION]
+    encode = copies.xml if copies is not None else stored_xml
+    return [
+        "<objectcollection>",
+        *(f"<object>{encode(m)}</object>" for m in msgs),
+        "</objectcollection>",
+    ]
+
+
+def encoded_groups(pieces: Sequence[str], size: int = 256 * 1024) -> list[bytes]:
+    """Return `pieces` encoded as UTF-8 in groups of about `size` characters.
+
+    What a worker thread writes for a reply of megabytes: no single join or encode of the whole
+    text, each of which holds the interpreter lock for milliseconds while the event loop waits
+    for it (issue #19).
+    """
+    groups: list[bytes] = []
+    group: list[str] = []
+    held = 0
+    for piece in pieces:
+        group.append(piece)
+        held += len(piece)
+        if held >= size:
+            groups.append("".join(group).encode("utf-8"))
+            group, held = [], 0
+    if group:
+        groups.append("".join(group).encode("utf-8"))
+    return groups
+
+
+def frame_header(length: int) -> bytes:
+    """Return the header of a Message frame whose XML is `length` bytes (OA-FRAME-1)."""
+    return _MESSAGE_HEADER[:8] + length.to_bytes(4, "little")
+
+
 def phase_spec_xml(phase: Phase | None, *, module: str, lasttrigger: str) -> str:
     """Return the PhaseSpec `<phase>` of a wakeup (OA-WAKE-4); callers may cache it."""
     return serialize(phase_spec_element(phase, module=module, lasttrigger=lasttrigger))

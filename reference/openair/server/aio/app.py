@@ -31,7 +31,7 @@ from openair.extras import install_hint, missing_extra
 from openair.observing import ServerObserver
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
-from openair.server.aio.budgets import quiet_accept_errors
+from openair.server.aio.budgets import ACCEPT_BATCH, full_backlog, quiet_accept_errors
 from openair.server.aio.clusternode import ClusterNode, join_cluster
 from openair.server.aio.dispatcher import Dispatcher
 from openair.server.aio.fairness import Turns
@@ -104,10 +104,6 @@ def _attachment(name: str) -> Attach | None:
         return attach
     log.warning("event=attachment_missing name=%s group=%s", name, ATTACHMENTS)
     return None
-
-
-#: Connections accepted in one loop turn at most (each costs some 60 µs to set up).
-_ACCEPT_BATCH = 32
 
 
 class MonitorHook(Protocol):
@@ -429,7 +425,7 @@ class Server:
             self.options.host,
             self.port,
             start_serving=False,
-            backlog=_ACCEPT_BATCH,  # the listen backlog is set after (`_serve`)
+            backlog=ACCEPT_BATCH,  # the listen backlog is set after (`full_backlog`)
             reuse_address=True,
             ssl=self.options.tls,  # OA-AUTH-10
         )
@@ -464,12 +460,7 @@ class Server:
         if self._attach_monitor is not None and "monitor" in self.extensions:  # OA-AUTH-11
             self.monitor = await self._attach_monitor(ObservedView(self))
         await self._listener.start_serving()
-        for sock in self._listener.sockets:
-            # asyncio accepts as many connections in one loop turn as the backlog it was given:
-            # with 1024, a flood's accepts took every other client's turn (issue #19). It got a
-            # small batch; the kernel's queue of connections to accept gets the full backlog.
-            with sock.dup() as listening:
-                listening.listen(self.options.backlog)
+        full_backlog(self._listener, self.options.backlog)  # accepted ACCEPT_BATCH a turn
         log.info(
             "event=listening host=%s port=%d whiteboards=%s extensions=%s",
             self.host,
@@ -504,14 +495,7 @@ class Server:
 
     def _fairness(self) -> dict[str, object]:
         """How often a peer's connection waited for a later loop turn (issue #19)."""
-        turns = self.turns
-        if turns is None:
-            return {"slice_ms": 0, "deferred": 0, "waiting": 0}
-        return {
-            "slice_ms": turns.slice * 1000,
-            "deferred": turns.deferred,
-            "waiting": turns.waiting,
-        }
+        return Turns.counters_of(self.turns)
 
     def _status_counters(self) -> dict[str, object]:
         """The adapter's counters that STATUS adds to the router's (for monitors)."""

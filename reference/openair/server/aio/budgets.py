@@ -16,7 +16,13 @@ from concurrent.futures import ThreadPoolExecutor
 
 from openair.server.core.budgets import RateLimitedLog
 
-__all__ = ["off_loop_executor", "quiet_accept_errors", "return_large_buffers"]
+__all__ = [
+    "ACCEPT_BATCH",
+    "full_backlog",
+    "off_loop_executor",
+    "quiet_accept_errors",
+    "return_large_buffers",
+]
 
 _FD_ERRNOS = frozenset({errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM})
 
@@ -90,3 +96,20 @@ def off_loop_executor() -> ThreadPoolExecutor:
         # keep the loop waiting for as long as the system leaves it off the processor.
         _OFF_LOOP.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="openair-large"))
     return _OFF_LOOP[0]
+
+
+#: Connections asyncio accepts in one loop turn at most (each costs some 60 µs to set up): the
+#: `backlog` the listener is created with.
+ACCEPT_BATCH = 32
+
+
+def full_backlog(listener: asyncio.Server, backlog: int) -> None:
+    """Give the kernel's queue of connections to accept the full `backlog` (issue #19).
+
+    asyncio accepts as many connections in one loop turn as the backlog it was given: with
+    1024, a flood's accepts took every other client's turn. The listener was created with
+    `ACCEPT_BATCH`; listening again on the same socket sets the queue's length.
+    """
+    for sock in listener.sockets:
+        with sock.dup() as listening:
+            listening.listen(backlog)

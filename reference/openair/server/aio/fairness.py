@@ -96,6 +96,17 @@ class Turns:
         self._waiting.setdefault(peer, deque()).append(resume)
         self._next_turn()
 
+    @staticmethod
+    def counters_of(turns: Turns | None) -> dict[str, object]:
+        """STATUS's `fairness` counters: the slice, the waits so far, the waiting now."""
+        if turns is None:
+            return {"slice_ms": 0, "deferred": 0, "waiting": 0}
+        return {
+            "slice_ms": turns.slice * 1000,
+            "deferred": turns.deferred,
+            "waiting": turns.waiting,
+        }
+
     @property
     def waiting(self) -> int:
         """How many connections wait for a turn."""

@@ -31,7 +31,7 @@ import asyncio
 import logging
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from openair.protocol.connection import SERVER_RULES, Connection, Role
 from openair.protocol.errors import (
@@ -50,7 +50,7 @@ from openair.server.aio.fairness import Turns
 from openair.server.aio.pairing import Requester, Waiter, Wire, fail_waiter
 from openair.server.aio.responder import Responder
 from openair.server.aio.timers import ConnectionTimers
-from openair.server.aio.writer import FrameWriter, encode_parts, error_reply
+from openair.server.aio.writer import FrameWriter, Sliced, encode_parts, error_reply
 from openair.server.core.budgets import Budget
 
 __all__ = ["Role", "ServerConnection"]
@@ -95,8 +95,8 @@ class ServerConnection(asyncio.Protocol):
         self._in_turn = False  # `turn_ends` was set by the caller (a read, or the turn)
         self._turn_ns = 0  # when the oldest bytes waiting for that turn arrived (OA-TIME-3)
         self._last_read = 0  # bytes of the last read (what reading again will likely cost)
-        #: A large reply being written a slice at a time: (frame, written so far, then call).
-        self._sliced: tuple[memoryview, int, Callable[[], None]] | None = None
+        #: A large reply being written a slice at a time (`send_sliced`).
+        self._sliced: Sliced | None = None
         self._slice_due = False  # a call to `_write_slices` is scheduled
         #: When this peer's slice of the loop turn runs out (`Turns.clock`); frame loops stop
         #: there and wait for a later turn (issue #19). Infinite without fairness.
@@ -393,14 +393,15 @@ class ServerConnection(asyncio.Protocol):
             return False
         return True
 
-    def send_sliced(self, wire: bytes, done: Callable[[], None]) -> None:
-        """Write a large reply's frame a slice at a time, then call `done` (issue #19).
+    def send_sliced(self, parts: Sequence[bytes], done: Callable[[], None]) -> None:
+        """Write a large reply's frame (its parts) a slice at a time, then call `done` (#19).
 
-        A slice goes out whenever the transport is under its high-water mark, so one callback
-        copies at most about that much; the rest follows as the peer reads (`resume_writing`).
-        Nothing else is written on the connection meanwhile: the responder holds it.
+        A slice goes out whenever the transport is under its high-water mark, one per loop turn,
+        so one callback copies at most `_SLICE` bytes; the rest follows as the peer reads
+        (`resume_writing`). Nothing else is written on the connection meanwhile: the responder
+        holds it.
         """
-        self._sliced = (memoryview(wire), 0, done)
+        self._sliced = Sliced(parts=tuple(parts), done=done)
         self._write_slices()
 
     def _next_slice(self) -> None:
@@ -411,9 +412,9 @@ class ServerConnection(asyncio.Protocol):
 
     def _write_slices(self) -> None:
         self._slice_due = False
-        if self._sliced is None:
+        sliced = self._sliced
+        if sliced is None:
             return
-        view, pos, done = self._sliced
         transport = self.transport
         if self._closing or transport is None:
             self._sliced = None
@@ -421,19 +422,16 @@ class ServerConnection(asyncio.Protocol):
         # One slice per loop turn: a peer that reads as fast as we write would otherwise take
         # the whole frame in one callback. pause_writing (the transport past its high-water
         # mark) stops it until resume_writing.
-        if pos < len(view) and not self._reading_paused:
-            end = min(pos + _SLICE, len(view))
-            self.writer.write_part(transport, view[pos:end])
-            pos = end
+        if not sliced.finished and not self._reading_paused:
+            self.writer.write_part(transport, sliced.take(_SLICE))
         self.last_traffic = time.monotonic()
-        if pos < len(view):
-            self._sliced = (view, pos, done)
+        if not sliced.finished:
             if not self._reading_paused:
                 self._next_slice()
             return
         self._sliced = None
         self.writer.end_reply()
-        done()
+        sliced.done()
 
     def encode(self, msg: Message, tag: FrameTag) -> tuple[bytes, ...]:
         """The frame of `msg` as parts to write (`writer.encode_parts`; a subclass may differ)."""

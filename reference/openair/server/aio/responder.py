@@ -29,7 +29,7 @@ from openair.protocol.errors import LimitExceededError, RemoteProtocolError
 from openair.protocol.framing import Frame, FrameTag
 from openair.protocol.message import Message
 from openair.server.aio.budgets import off_loop_executor
-from openair.server.aio.pairing import salvage
+from openair.server.aio.pairing import Wire, salvage
 from openair.server.aio.writer import error_reply
 from openair.server.core.outcome import AwaitedReply
 from openair.server.core.router import Outcome
@@ -190,7 +190,7 @@ class Responder:
             self.route(frame, done.result(), received_ns)
         self._resume()
 
-    def _reply_off_loop(self, later: Callable[[], tuple[Message, bytes | None]]) -> None:
+    def _reply_off_loop(self, later: Callable[[], tuple[Message, Wire | None]]) -> None:
         """Write a large reply on a worker thread; later requests wait for it (OA-SESS-2).
 
         A retrieve of thousands of messages takes a second to write (issue #19, item 6).
@@ -199,7 +199,7 @@ class Responder:
         future = asyncio.get_running_loop().run_in_executor(off_loop_executor(), later)
         conn = self.conn
 
-        def replied(done: asyncio.Future[tuple[Message, bytes | None]]) -> None:
+        def replied(done: asyncio.Future[tuple[Message, Wire | None]]) -> None:
             assert conn is not None  # the callback holds the connection until it has run
             self._replied(done)
 
@@ -226,7 +226,7 @@ class Responder:
         self.conn.send(pending.reply(pending.done, time.time_ns()))
         self._resume()
 
-    def _replied(self, done: asyncio.Future[tuple[Message, bytes | None]]) -> None:
+    def _replied(self, done: asyncio.Future[tuple[Message, Wire | None]]) -> None:
         self.decoding = 0
         if self.conn.is_closing:
             return
@@ -236,11 +236,12 @@ class Responder:
             self.conn.abort()
             return
         reply, wire = done.result()
-        if wire is not None and len(wire) > SLICED_REPLY:
+        parts = (wire,) if isinstance(wire, bytes) else wire
+        if parts is not None and sum(map(len, parts)) > SLICED_REPLY:
             # Written a slice at a time as the peer reads: handing the transport megabytes at
             # once copies them all in one callback (issue #19, item 6). Held until the end.
             self.decoding = 1
-            self.conn.send_sliced(wire, self._sliced_done)
+            self.conn.send_sliced(parts, self._sliced_done)
             return
         self.conn.send(reply, wire=wire)
         self._resume()

@@ -13,7 +13,8 @@ import asyncio
 import logging
 import time
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 from openair.protocol.codec import to_frame
 from openair.protocol.errors import ApiMisuseError
@@ -21,7 +22,7 @@ from openair.protocol.framing import FrameTag, coalesce, encode_frame, encode_fr
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
 
-__all__ = ["FrameWriter", "encode_parts", "error_reply"]
+__all__ = ["FrameWriter", "Sliced", "encode_parts", "error_reply"]
 
 log = logging.getLogger("openair.server")
 
@@ -121,3 +122,28 @@ class FrameWriter:
         while self._unflushed and self._unflushed[0] <= flushed:
             self._unflushed.popleft()
         return len(self._unflushed)
+
+
+@dataclass(slots=True)
+class Sliced:
+    """A large reply's frame being written a slice at a time, and what to call after it."""
+
+    parts: tuple[bytes, ...]
+    done: Callable[[], None]
+    part: int = 0  # the part being written
+    offset: int = 0  # bytes of it written
+
+    @property
+    def finished(self) -> bool:
+        return self.part >= len(self.parts)
+
+    def take(self, most: int) -> memoryview:
+        """Return the next at most `most` bytes (never across two parts)."""
+        data = self.parts[self.part]
+        end = min(self.offset + most, len(data))
+        piece = memoryview(data)[self.offset : end]
+        if end >= len(data):
+            self.part, self.offset = self.part + 1, 0
+        else:
+            self.offset = end
+        return piece

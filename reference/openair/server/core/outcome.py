@@ -68,7 +68,7 @@ class Outcome:
     push_stream: str = ""
     # A reply too large to write on the event loop (issue #19, item 6): instead of `replies`,
     # a function that builds it and its frame on any thread. Only with `defer_large_replies`.
-    later: Callable[[], tuple[Message, bytes | None]] | None = None
+    later: Callable[[], tuple[Message, bytes | tuple[bytes, ...] | None]] | None = None
     # A cluster node's post or message to another node's module (spec 17): instead of
     # `replies`, the reply once the store or that node answered. Only with
     # `defer_store_replies`.

@@ -23,7 +23,7 @@ from openair.protocol.fastcodec import fast_encode_str
 from openair.protocol.message import Message
 from openair.protocol.objects import parse_content
 from openair.protocol.registration import parse_retrieve_element, parse_retrieves
-from openair.protocol.wakeup import collection_xml, frame_bytes
+from openair.protocol.wakeup import collection_parts, encoded_groups, frame_header
 from openair.protocol.xmlsafe import local_name
 from openair.server.core.commands import error_reply, reply
 from openair.server.core.whiteboard import Whiteboard, select, text_bytes
@@ -44,6 +44,8 @@ RETRIEVES = "AIR.Retrieves"
 _ENVELOPE_ALLOWANCE = 1024
 # Retrieves that scan at least this many stored copies are chosen and written on a worker.
 _LARGE_SCAN = 2048
+#: Where the collection goes in the envelope written around it (`<` is escaped in every slot).
+_SPLICE = "<openair-splice/>"
 
 
 def parse_request(msg: Message) -> tuple[RetrieveSpec, ...]:
@@ -122,11 +124,17 @@ class PreparedRetrieve:
                 )
         return results
 
-    def build(self) -> tuple[Message, bytes | None]:
-        """Return the reply and its Message frame (None: the sender encodes it as usual)."""
+    def build(self) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
+        """Return the reply and its Message frame, as parts (None: the sender encodes it).
+
+        The frame is written in parts of about 256 KiB, the collection's pieces encoded a group
+        at a time: on a worker thread no single operation on megabytes holds the interpreter
+        lock the event loop waits for (issue #19). Joined, the parts are the frame `to_frame`
+        and `encode_frame` make of the reply.
+        """
         base = RETRIEVES if self.request.type == RETRIEVES else RETRIEVE
         try:
-            content, chunks = self._content()
+            pieces, content, chunks = self._content()
         except OpenAIRError as err:
             failed = error_reply(
                 self.request, err, sender=self.sender, now_ns=self.now_ns, type_=f"{base}.Failed"
@@ -142,16 +150,23 @@ class PreparedRetrieve:
         )
         if chunks:
             return dataclasses.replace(answer, binary=chunks), None
-        # The collection is the canonical text lxml writes, so it is spliced in as it is.
-        text = fast_encode_str(answer, xml_content=True)
-        return answer, frame_bytes(text.encode("utf-8")) if text is not None else None
+        # The collection is the canonical text lxml writes, so it is spliced in as it is: the
+        # envelope is written around a placeholder no escaped slot can contain.
+        text = fast_encode_str(dataclasses.replace(answer, content=_SPLICE), xml_content=True)
+        if text is None:
+            return answer, None
+        head, _, tail = text.partition(_SPLICE)
+        parts = [head.encode("utf-8"), *encoded_groups(pieces), tail.encode("utf-8")]
+        return answer, (frame_header(sum(map(len, parts))), *parts)
 
-    def _content(self) -> tuple[str, tuple[bytes, ...]]:
+    def _content(self) -> tuple[list[str], str, tuple[bytes, ...]]:
         if self.error is not None:
             raise self.error
         results = self.results()
-        content = collection_xml(results)  # OA-RET-7: what encode_message_collection writes
-        if len(content.encode("utf-8")) + _ENVELOPE_ALLOWANCE > self.max_xml:  # OA-RET-15
+        pieces = collection_parts(results)  # OA-RET-7: what encode_message_collection writes
+        content = "".join(pieces)
+        size = len(content) if content.isascii() else len(content.encode("utf-8"))
+        if size + _ENVELOPE_ALLOWANCE > self.max_xml:  # OA-RET-15
             raise LimitExceededError(
                 f"{len(results)} results exceed max-frame-xml ({self.max_xml} bytes)"
             )
@@ -161,7 +176,7 @@ class PreparedRetrieve:
                 f"the attachments of {len(results)} results exceed max-frame-binary"
                 f" ({self.max_binary} bytes); ask for fewer with latest"
             )
-        return content, chunks
+        return pieces, content, chunks
 
 
 def prepare_retrieve(

@@ -223,3 +223,35 @@ def test_with_every_connection_from_one_address_a_burst_never_waits() -> None:
         await server.stop()
 
     run(body)
+
+
+def test_an_http_request_kept_for_a_later_turn_still_reaches_the_monitor() -> None:
+    """A read kept while its address waits is replayed as it came: the first bytes of an HTTP
+    request are still handed to the monitor, not to the frame reader (which would refuse them)."""
+
+    async def body() -> None:
+        server = await serving(ServerOptions(fair_slice_s=0.00005))
+        assert server.turns is not None
+        other = await Raw.open(server.port, local="127.0.0.2")
+        await other.ping()
+        flood = await Raw.open(server.port)
+        flood.write(
+            b"".join(
+                encode_frame(to_frame(Message(type=f"Test.F{i}", to="WB1", sender="F")))
+                for i in range(_POSTS)
+            )
+        )
+        assert (await flood.recv()) is not None  # the burst has begun: its address waits
+        reader, writer = await asyncio.open_connection("127.0.0.1", server.port)
+        writer.write(b"GET /api/overview HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n")
+        status = await asyncio.wait_for(reader.readline(), 30)
+        assert status.startswith(b"HTTP/1.1 200"), status
+        writer.close()
+        for _ in range(_POSTS - 1):
+            assert (await flood.recv()) is not None
+        assert server.turns.deferred > 0
+        await flood.close()
+        await other.close()
+        await server.stop()
+
+    run(body)

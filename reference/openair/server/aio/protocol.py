@@ -95,6 +95,8 @@ class ServerConnection(asyncio.Protocol):
         self._in_turn = False  # `turn_ends` was set by the caller (a read, or the turn)
         self._turn_ns = 0  # when the oldest bytes waiting for that turn arrived (OA-TIME-3)
         self._last_read = 0  # bytes of the last read (what reading again will likely cost)
+        self._kept: list[bytes] = []  # reads kept for this peer's next turn, unread
+        self._kept_bytes = 0
         #: A large reply being written a slice at a time (`send_sliced`).
         self._sliced: Sliced | None = None
         self._slice_due = False  # a call to `_write_slices` is scheduled
@@ -147,28 +149,36 @@ class ServerConnection(asyncio.Protocol):
         if self._closing:
             return  # OA-FRAME-9: nothing after a failure or a close is processed
         self.last_byte = self.last_traffic = time.monotonic()
-        if self.frames_in == 0 and self._taken_by_http(data):
-            return
         turns = self.turns
         if turns is None or not (turns.shared or turns.waiting):
-            self._take(data, received_ns)  # no one to be fair to
+            self._receive(data, received_ns)  # no one to be fair to
             return
         peer = self.peer[0]
         began = turns.clock()
         self._last_read = len(data)
         if not turns.may_run(peer):
             # This peer spent its slice of the turn (issue #19): keep the bytes, act later.
-            if self._feed_reader(data) and self._hold_partial():
+            if not self._kept:
+                self._turn_ns = received_ns
+            self._kept.append(data)
+            self._kept_bytes += len(data)
+            if self._hold_partial():
                 self._wait_turn(received_ns)
             turns.charge(peer, turns.clock() - began + len(data) * turns.read_cost)
             return
         self.turn_ends = turns.deadline(peer) - len(data) * turns.read_cost
         self._in_turn = True
         try:
-            self._take(data, received_ns)
+            self._receive(data, received_ns)
         finally:
             self._in_turn = False
             turns.charge(peer, turns.clock() - began + len(data) * turns.read_cost)
+
+    def _receive(self, data: bytes, received_ns: int) -> None:
+        """Act on one read: the monitor's if it starts HTTP, else the frames in it."""
+        if self.frames_in == 0 and self._taken_by_http(data):
+            return
+        self._take(data, received_ns)
 
     def _take(self, data: bytes, received_ns: int) -> None:
         """Act on one read: the data path first, then the reader and the reference path."""
@@ -242,12 +252,13 @@ class ServerConnection(asyncio.Protocol):
         self.turn_ends = turns.deadline(peer)
         self._in_turn = True
         try:
-            if self._datapath is not None and not self.responder.held:
-                # The kept bytes go through the data path again when few (RESPLICE_MAX).
-                rest = self._datapath.feed(self, b"", self._turn_ns)
-                if not self._feed_reader(rest):
-                    return
-            self.process(self._turn_ns)
+            kept, self._kept, self._kept_bytes = self._kept, [], 0
+            if not kept:  # the frames the reader holds (few go through the data path again)
+                self._take(b"", self._turn_ns)
+            for data in kept:  # the reads kept while waiting, in order
+                if self._closing:
+                    break
+                self._receive(data, self._turn_ns)
         finally:
             self._in_turn = False
             # Reading again lets the next read happen in the next turn: charged now, so a
@@ -280,7 +291,8 @@ class ServerConnection(asyncio.Protocol):
         budget = self._budget
         if budget is None or self._closing:
             return not self._closing
-        held = self.reader.buffered + self.responder.decoding  # a frame in decoding is held
+        # A frame in decoding is held; so are reads kept for a later turn.
+        held = self.reader.buffered + self.responder.decoding + self._kept_bytes
         if budget.hold_partial(held - self._partial):
             self._partial = held
             return True

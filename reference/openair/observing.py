@@ -205,10 +205,16 @@ class ObservedServer(Protocol):
 
 
 def message_bytes(message: Message, wire: bytes | tuple[bytes, ...] | None) -> int:
-    """Return the bytes a held message takes: its frame, or an estimate from its slots."""
+    """Return the bytes a held message takes: an estimate from its slots, plus its frame.
+
+    A message held with its frame holds both: the frame is an encoded copy of the text (a
+    wakeup of a megabyte is a megabyte of content and a megabyte of frame; counting the frame
+    alone let the monitor's ring and the delivery queues hold twice their budgets, issue #19).
+    Binary chunks are counted once: a frame's parts are the message's own chunks.
+    """
+    text = ENVELOPE_BYTES + len(message.content) + len(message.history) + len(message.comment)
     if isinstance(wire, bytes):
-        return len(wire)
+        return text + len(wire)
     if wire is not None:
-        return sum(len(part) for part in wire)
-    size = ENVELOPE_BYTES + len(message.content) + len(message.history) + len(message.comment)
-    return size + sum(len(chunk) for chunk in message.binary)
+        return text + sum(len(part) for part in wire)
+    return text + sum(len(chunk) for chunk in message.binary)

@@ -22,7 +22,7 @@ from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
-from openair.observing import Acknowledged, Delivered, message_bytes
+from openair.observing import Acknowledged, Delivered, held_bytes, message_bytes
 from openair.protocol.message import Message
 
 __all__ = ["LATENCY_BOUNDS_US", "Event", "Histogram", "RateMeter", "Tap"]
@@ -91,7 +91,7 @@ class Tap:
         try:
             size = message_bytes(stored, None)
             for delivery in deliveries:
-                size += message_bytes(delivery.message, delivery.wire)
+                size += held_bytes(delivery.message, delivery.wire)
             if len(self.ring) == self.ring.maxlen:
                 self.bytes -= self._sizes.popleft()  # the append below drops the oldest
             self.ring.append((stored, deliveries))

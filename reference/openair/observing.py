@@ -39,6 +39,7 @@ __all__ = [
     "ObservedServer",
     "ServerObserver",
     "StoredBoard",
+    "held_bytes",
     "message_bytes",
 ]
 
@@ -205,16 +206,27 @@ class ObservedServer(Protocol):
 
 
 def message_bytes(message: Message, wire: bytes | tuple[bytes, ...] | None) -> int:
-    """Return the bytes a held message takes: an estimate from its slots, plus its frame.
+    """Return the bytes of a message as it travels: its frame, or an estimate from its slots.
 
-    A message held with its frame holds both: the frame is an encoded copy of the text (a
-    wakeup of a megabyte is a megabyte of content and a megabyte of frame; counting the frame
-    alone let the monitor's ring and the delivery queues hold twice their budgets, issue #19).
-    Binary chunks are counted once: a frame's parts are the message's own chunks.
+    What OA-LIM-8 bounds (a delivery's size). A holder that keeps the message's text as well as
+    its frame holds more: `held_bytes` counts both.
     """
-    text = ENVELOPE_BYTES + len(message.content) + len(message.history) + len(message.comment)
     if isinstance(wire, bytes):
-        return text + len(wire)
+        return len(wire)
     if wire is not None:
-        return text + sum(len(part) for part in wire)
-    return text + sum(len(chunk) for chunk in message.binary)
+        return sum(len(part) for part in wire)
+    size = ENVELOPE_BYTES + len(message.content) + len(message.history) + len(message.comment)
+    return size + sum(len(chunk) for chunk in message.binary)
+
+
+def held_bytes(message: Message, wire: bytes | tuple[bytes, ...] | None) -> int:
+    """Return the memory a message held with its frame takes: its text and its frame.
+
+    The frame is an encoded copy of the text: a wakeup of a megabyte is a megabyte of content
+    and a megabyte of frame (the monitor's ring, counting the frame alone, held twice its
+    budget; issue #19). Binary chunks are counted once: a frame's parts are the message's own.
+    """
+    if wire is None:
+        return message_bytes(message, None)
+    text = ENVELOPE_BYTES + len(message.content) + len(message.history) + len(message.comment)
+    return text + message_bytes(message, wire)

@@ -267,12 +267,13 @@ def test_a_client_that_does_not_read_has_its_batches_dropped_then_is_closed() ->
 
 def test_a_message_held_with_its_frame_counts_both() -> None:
     """Issue #19: a wakeup held with its frame holds its text twice (content and frame); the
-    ring and the delivery queues counted the frame only, and held twice their budgets."""
-    from openair.observing import ENVELOPE_BYTES, message_bytes
+    monitor's ring counted the frame only, and held twice its budget."""
+    from openair.observing import ENVELOPE_BYTES, held_bytes, message_bytes
     from openair.protocol.message import Message
 
     msg = Message(type="AIR.Instruct.Wakeup", to="M", content="x" * 1000)
-    assert message_bytes(msg, b"y" * 1100) == ENVELOPE_BYTES + 1000 + 1100
-    assert message_bytes(msg, (b"y" * 100, b"z" * 50)) == ENVELOPE_BYTES + 1000 + 150
+    assert held_bytes(msg, b"y" * 1100) == ENVELOPE_BYTES + 1000 + 1100
+    assert held_bytes(msg, (b"y" * 100, b"z" * 50)) == ENVELOPE_BYTES + 1000 + 150
+    assert message_bytes(msg, b"y" * 1100) == 1100  # a delivery's size (OA-LIM-8): its frame
     chunked = Message(type="T", content="", binary=(b"c" * 500,))
-    assert message_bytes(chunked, None) == ENVELOPE_BYTES + 500  # chunks once, not per frame
+    assert held_bytes(chunked, None) == ENVELOPE_BYTES + 500  # chunks once, not per frame

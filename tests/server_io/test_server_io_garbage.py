@@ -18,7 +18,7 @@ import pytest
 from server_io_helpers import run, serving
 
 from openair.protocol.codec import to_frame
-from openair.protocol.framing import FrameReader, encode_frame
+from openair.protocol.framing import FrameReader, FrameTag, encode_frame
 from openair.protocol.message import Message
 
 _CONNECTIONS = 50
@@ -82,3 +82,80 @@ def test_closed_connections_leave_no_reference_cycles(client: Callable[[int, int
         }
     }
     assert not server_side, server_side
+
+
+def _send(sock: socket.socket, msg: Message, tag: FrameTag = FrameTag.MESSAGE) -> None:
+    sock.sendall(encode_frame(to_frame(msg, tag)))
+
+
+def _recv(sock: socket.socket, reader: FrameReader) -> None:
+    while reader.next_frame() is None:
+        data = sock.recv(65536)
+        assert data, "the server closed the connection"
+        reader.feed(data)
+
+
+def _leaver(port: int, i: int) -> None:
+    """A module that is woken and leaves before it acknowledges: its delivery is in flight."""
+    name = f"Leaver{i}"
+    with (
+        socket.create_connection(("127.0.0.1", port), timeout=10) as primary,
+        socket.create_connection(("127.0.0.1", port), timeout=10) as callback,
+        socket.create_connection(("127.0.0.1", port), timeout=10) as poster,
+    ):
+        replies, wakeups, acks = FrameReader(), FrameReader(), FrameReader()
+        _send(primary, Message(type="BIND_NOLISTEN", to="CNS", sender=name))
+        _recv(primary, replies)
+        _send(
+            callback,
+            Message(type="RECEIVE_NAME_NOTIFICATION", to="CNS", sender=name),
+            FrameTag.RECEIVE,
+        )
+        triggers = f'<triggers><trigger from="WB1" type="Test.Leave.{i}"/></triggers>'
+        _send(
+            primary,
+            Message(
+                type="AIR.Subscribe", to="WB1", sender=name, content=triggers, content_is_xml=True
+            ),
+        )
+        _recv(primary, replies)
+        _send(
+            poster, Message(type=f"Test.Leave.{i}", to="WB1", sender="Poster", content="x" * 1000)
+        )
+        _recv(poster, acks)
+        _recv(callback, wakeups)  # woken, never acknowledged
+
+
+def test_a_module_that_leaves_with_a_delivery_in_flight_leaves_no_cycle() -> None:
+    """The cancelled delivery task's traceback held its frame, whose locals held the module's
+    delivery state, which held the task: each module that left with a wakeup in flight kept its
+    queue, that wakeup and its connection until a full collection (issue #19)."""
+    found: Counter[str] = Counter()
+
+    async def body() -> None:
+        server = await serving()
+        gc.collect()
+        gc.disable()
+        gc.set_debug(gc.DEBUG_SAVEALL)
+        try:
+            for i in range(10):
+                await asyncio.to_thread(_leaver, server.port, i)
+            for _ in range(250):  # until every queue was discarded (OA-SESS-15)
+                if not any(n.startswith("Leaver") for n in server.dispatcher.modules):
+                    break
+                await asyncio.sleep(0.02)
+            assert not any(n.startswith("Leaver") for n in server.dispatcher.modules)
+            await asyncio.sleep(0.1)
+            gc.collect()
+            found.update(type(obj).__qualname__ for obj in gc.garbage)
+        finally:
+            gc.set_debug(0)
+            gc.garbage.clear()
+            gc.enable()
+        await server.stop()
+
+    run(body)
+    held = {
+        k: n for k, n in found.items() if k in {"ModuleDelivery", "ServerConnection", "QueueItem"}
+    }
+    assert not held, held

@@ -110,7 +110,9 @@ class ModuleDelivery:
         # Samples of the streams the module subscribed to (OA-STREAM-14): one bounded buffer per
         # stream (OA-STREAM-8); they go before queued messages ("streams outrank messages").
         self.samples: dict[str, SampleBuffer] = {}
-        self.task = asyncio.get_running_loop().create_task(self._run(), name=f"deliver {name}")
+        self.task: asyncio.Task[None] | None = asyncio.get_running_loop().create_task(
+            self._run(), name=f"deliver {name}"
+        )
 
     @property
     def pending(self) -> int:
@@ -482,7 +484,8 @@ class ModuleDelivery:
         if self._timer is not None:
             self._timer.cancel()
             self._timer = None
-        tasks = [self.task]
+        tasks = [self.task] if self.task is not None else []
+        self.task = None  # see below
         for waiting in self._in_flight:
             if isinstance(waiting, _Sent):
                 self._settle(waiting)  # its reply, if one comes, is ignored
@@ -500,4 +503,11 @@ class ModuleDelivery:
         self._retry.clear()
         if self._outbound is not None:
             self._outbound.close()
+        # A cancelled task keeps the traceback of its cancellation, whose frames hold this
+        # object: with `self.task` kept, the whole delivery state (the queue, the last wakeup,
+        # its connection) was a cycle that only a late full collection freed, megabytes a
+        # module under the server's rare collections (issue #19).
+        for task in tasks:
+            if task.done() and not task.cancelled():
+                task.exception()  # retrieved: no "never retrieved" warning when it goes
         return left

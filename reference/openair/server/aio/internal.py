@@ -272,7 +272,8 @@ def start_internal(server: Server) -> InternalModules:
             found[config.name] = _start_one(server, config.name, config.internal, -(i + 1))
     except ConfigError:
         for delivery in found.values():
-            delivery.task.cancel()
+            if delivery.task is not None:
+                delivery.task.cancel()
             if delivery._worker is not None:
                 delivery._worker.shutdown(wait=False)
         raise
@@ -291,7 +292,8 @@ def _start_one(server: Server, name: str, code: str, conn_id: int) -> InternalDe
     bind = Message(type="BIND_NOLISTEN", sender=name, to="CNS")
     reply = server.inject(bind, received_ns=time.time_ns(), conn_id=conn_id)
     if not reply.replies or reply.replies[0].type != "BIND_ACCEPT":
-        delivery.task.cancel()
+        if delivery.task is not None:
+            delivery.task.cancel()
         detail = reply.replies[0].content if reply.replies else "no reply"
         raise ConfigError(f"internal module {name!r} cannot bind: {detail}")
     server.router.hold(name)  # OA-CONF-8: no TCP module takes the name over

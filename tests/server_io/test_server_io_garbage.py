@@ -20,6 +20,7 @@ from server_io_helpers import run, serving
 from openair.protocol.codec import to_frame
 from openair.protocol.framing import FrameReader, FrameTag, encode_frame
 from openair.protocol.message import Message
+from openair.server.aio.app import Server
 
 _CONNECTIONS = 50
 
@@ -42,8 +43,11 @@ def _http_client(port: int, i: int) -> None:
         sock.sendall(b"GET /api/overview HTTP/1.1\r\nHost: localhost\r\n")
 
 
-@pytest.mark.parametrize("client", [_client, _http_client], ids=["openair", "monitor"])
-def test_closed_connections_leave_no_reference_cycles(client: Callable[[int, int], None]) -> None:
+def _garbage_after(
+    client: Callable[[int, int], None], count: int, ended: Callable[[Server], bool]
+) -> Counter[str]:
+    """Run `client` `count` times against a fresh server, wait until `ended(server)`, and
+    count by type what a collection then finds in reference cycles (collector off meanwhile)."""
     found: Counter[str] = Counter()
 
     async def body() -> None:
@@ -52,13 +56,13 @@ def test_closed_connections_leave_no_reference_cycles(client: Callable[[int, int
         gc.disable()
         gc.set_debug(gc.DEBUG_SAVEALL)
         try:
-            for i in range(_CONNECTIONS):
+            for i in range(count):
                 await asyncio.to_thread(client, server.port, i)
-            for _ in range(50):  # until the server has seen every connection end
-                if not server._conns and server.turns is not None and not server.turns.shared:
+            for _ in range(250):
+                if ended(server):
                     break
                 await asyncio.sleep(0.02)
-            assert not server._conns
+            assert ended(server)
             await asyncio.sleep(0.1)  # the monitor's connections end on their own
             gc.collect()
             found.update(type(obj).__qualname__ for obj in gc.garbage)
@@ -69,6 +73,17 @@ def test_closed_connections_leave_no_reference_cycles(client: Callable[[int, int
         await server.stop()
 
     run(body)
+    return found
+
+
+def _all_closed(server: Server) -> bool:
+    """Every connection ended (the server's and the monitor's: one address no longer open)."""
+    return not server._conns and server.turns is not None and not server.turns.shared
+
+
+@pytest.mark.parametrize("client", [_client, _http_client], ids=["openair", "monitor"])
+def test_closed_connections_leave_no_reference_cycles(client: Callable[[int, int], None]) -> None:
+    found = _garbage_after(client, _CONNECTIONS, _all_closed)
     server_side = {
         kind: n
         for kind, n in found.items()
@@ -130,31 +145,11 @@ def test_a_module_that_leaves_with_a_delivery_in_flight_leaves_no_cycle() -> Non
     """The cancelled delivery task's traceback held its frame, whose locals held the module's
     delivery state, which held the task: each module that left with a wakeup in flight kept its
     queue, that wakeup and its connection until a full collection (issue #19)."""
-    found: Counter[str] = Counter()
 
-    async def body() -> None:
-        server = await serving()
-        gc.collect()
-        gc.disable()
-        gc.set_debug(gc.DEBUG_SAVEALL)
-        try:
-            for i in range(10):
-                await asyncio.to_thread(_leaver, server.port, i)
-            for _ in range(250):  # until every queue was discarded (OA-SESS-15)
-                if not any(n.startswith("Leaver") for n in server.dispatcher.modules):
-                    break
-                await asyncio.sleep(0.02)
-            assert not any(n.startswith("Leaver") for n in server.dispatcher.modules)
-            await asyncio.sleep(0.1)
-            gc.collect()
-            found.update(type(obj).__qualname__ for obj in gc.garbage)
-        finally:
-            gc.set_debug(0)
-            gc.garbage.clear()
-            gc.enable()
-        await server.stop()
+    def discarded(server: Server) -> bool:  # every queue discarded (OA-SESS-15)
+        return not any(n.startswith("Leaver") for n in server.dispatcher.modules)
 
-    run(body)
+    found = _garbage_after(_leaver, 10, discarded)
     held = {
         k: n for k, n in found.items() if k in {"ModuleDelivery", "ServerConnection", "QueueItem"}
     }

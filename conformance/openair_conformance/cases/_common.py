@@ -59,6 +59,7 @@ __all__ = [
     "trigger_types",
     "triggers_xml",
     "view_of",
+    "woken_by",
 ]
 
 #: The system components every server has besides AIRCentral and the whiteboards (spec 6.2).
@@ -434,3 +435,15 @@ def stream_module_xml(ctx: CaseContext, name: str, stream: str) -> str:
     never = f'<trigger from="WB1" type="{esc(ctx.type("Never"))}"/>'
     inputs = f'<streams><inputstream alias="In" source="{esc(stream)}"/></streams>'
     return f'<module name="{esc(name)}">{inputs}{never}</module>'
+
+
+async def woken_by(
+    ctx: CaseContext, sub: TestModule, poster: TestModule, names: list[str]
+) -> list[str]:
+    """Post one message per trigger type name; return the names that woke `sub`, in order."""
+    ids: dict[str, str] = {}
+    for name in names:
+        await poster.post("WB1", ctx.type(name), name)
+        assert poster.last_sent is not None
+        ids[poster.last_sent.id] = name
+    return [ids[i] for i in trigger_ids(await sub.barrier()) if i in ids]

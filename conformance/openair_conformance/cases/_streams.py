@@ -43,6 +43,7 @@ __all__ = [
     "check_sample",
     "chunk",
     "create_stream",
+    "create_stream_request",
     "future_base",
     "marker",
     "past_window",
@@ -193,6 +194,18 @@ async def stream_under_test(ctx: CaseContext) -> str:
     return name
 
 
+def create_stream_request(ctx: CaseContext, content: str) -> Message:
+    """A Psyclone.System.Create.Stream request from the case's Creator with `content`."""
+    return Message(
+        type="Psyclone.System.Create.Stream",
+        sender=ctx.name("Creator"),
+        to="Psyclone",
+        content=content,
+        content_is_xml=True,
+        language="xml",
+    )
+
+
 async def create_stream(
     ctx: CaseContext,
     raw: RawConnection,
@@ -211,16 +224,7 @@ async def create_stream(
     name = ctx.name(suffix)
     extra = "".join(f' {k}="{esc(str(v))}"' for k, v in attrs.items())
     content = f'<stream name="{name}" whiteboard="WB1"{extra}/>'
-    reply = await raw.request(
-        Message(
-            type="Psyclone.System.Create.Stream",
-            sender=ctx.name("Creator"),
-            to="Psyclone",
-            content=content,
-            content_is_xml=True,
-            language="xml",
-        )
-    )
+    reply = await raw.request(create_stream_request(ctx, content))
     if reply.type != "RECEIVE_ACCEPT":
         text = (
             f"Psyclone.System.Create.Stream {content} was answered {reply.type} {reply.content!r}"

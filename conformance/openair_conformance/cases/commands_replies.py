@@ -7,8 +7,8 @@ starts its context at the first phase while only PhaseChange itself advances it 
 from __future__ import annotations
 
 from openair.protocol.message import Message
-from openair_conformance.cases._common import setup_subscribe, trigger_ids, triggers_xml
-from openair_conformance.harness import CaseContext, TestModule
+from openair_conformance.cases._common import setup_subscribe, triggers_xml, woken_by
+from openair_conformance.harness import CaseContext
 from openair_conformance.model import Level
 from openair_conformance.registry import case
 
@@ -48,18 +48,6 @@ def _phases(name: str, context: str, types: list[str]) -> str:
     return f'<module name="{name}"><context name="{context}">{phases}</context></module>'
 
 
-async def _woken_by(
-    ctx: CaseContext, sub: TestModule, poster: TestModule, names: list[str]
-) -> list[str]:
-    """Post one message per trigger type name; return the names that woke `sub`, in order."""
-    ids: dict[str, str] = {}
-    for name in names:
-        await poster.post("WB1", ctx.type(name), name)
-        assert poster.last_sent is not None
-        ids[poster.last_sent.id] = name
-    return [ids[i] for i in trigger_ids(await sub.barrier()) if i in ids]
-
-
 @case(
     id="CTX-040",
     title="Contexts: only PhaseChange advances a phase; a new registration starts at the first",
@@ -86,12 +74,12 @@ async def phase_restarts(ctx: CaseContext) -> None:
     await setup_subscribe(sub, registration)
     poster = await ctx.module("Poster", bind=False)
     await poster.post("WB1", f"Psyclone.Context:{context}", "switch")
-    got = [await _woken_by(ctx, sub, poster, names)]
+    got = [await woken_by(ctx, sub, poster, names)]
     await sub.post("WB1", f"Z{ctx.type('NotAPhaseChange')}", "")  # sorts after PhaseChange
-    got.append(await _woken_by(ctx, sub, poster, names))
+    got.append(await woken_by(ctx, sub, poster, names))
     await sub.post("WB1", PHASE_CHANGE, "")
-    got.append(await _woken_by(ctx, sub, poster, names))
+    got.append(await woken_by(ctx, sub, poster, names))
     await setup_subscribe(sub, registration)
-    got.append(await _woken_by(ctx, sub, poster, names))
+    got.append(await woken_by(ctx, sub, poster, names))
     want = [["T1"], ["T1"], ["T2"], ["T1"]]
     ctx.check(got == want, f"woken by {got}", expected=f"{want} (OA-REG-17)")

@@ -8,7 +8,13 @@ touch `Psyclone.System.Ready`, which every other case depends on.
 from __future__ import annotations
 
 from openair.protocol.message import Message
-from openair_conformance.cases._common import setup_subscribe, trigger_ids, triggers_xml, view_of
+from openair_conformance.cases._common import (
+    setup_subscribe,
+    trigger_ids,
+    triggers_xml,
+    view_of,
+    woken_by,
+)
 from openair_conformance.harness import CaseContext, TestModule
 from openair_conformance.registry import case
 
@@ -22,18 +28,6 @@ def _module(name: str, phases: list[tuple[str, str, str]]) -> str:
         groups.setdefault(context, []).append(f'<phase id="{phase}">{triggers_xml(type_)}</phase>')
     inner = "".join(f'<context name="{c}">{"".join(p)}</context>' for c, p in groups.items())
     return f'<module name="{name}">{inner}</module>'
-
-
-async def _woken_by(
-    ctx: CaseContext, sub: TestModule, poster: TestModule, names: list[str]
-) -> list[str]:
-    """Post one message per trigger type name; return the names that woke `sub`, in order."""
-    ids: dict[str, str] = {}
-    for name in names:
-        await poster.post("WB1", ctx.type(name), name)
-        assert poster.last_sent is not None
-        ids[poster.last_sent.id] = name
-    return [ids[i] for i in trigger_ids(await sub.barrier()) if i in ids]
 
 
 async def _switch(poster: TestModule, context: str) -> None:
@@ -81,7 +75,7 @@ async def roots_and_recency(ctx: CaseContext) -> None:
     )
     for context, want in steps:
         await _switch(poster, context)
-        got = await _woken_by(ctx, sub, poster, ["X", "Y"])
+        got = await woken_by(ctx, sub, poster, ["X", "Y"])
         ctx.check(
             got == want,
             f"after {context}: woken by {got}",
@@ -132,7 +126,7 @@ async def phase_updates(ctx: CaseContext) -> None:
             )
         before = len(sub.phase_updates)
         await _switch(poster, context)
-        got = await _woken_by(ctx, sub, poster, ["A", "AB"])
+        got = await woken_by(ctx, sub, poster, ["A", "AB"])
         ctx.check(got == want, f"after {context}: woken by {got}", expected=f"{want} (OA-REG-14)")
         view = view_of(ctx, _last_update(ctx, sub, before, f"after {context}"))
         named = (view.phase_attr("name"), view.phase_attr("context"))
@@ -166,16 +160,16 @@ async def phase_sequencing(ctx: CaseContext) -> None:
     await setup_subscribe(sub, _module(sub.name, phases))
     poster = await ctx.module("Poster", bind=False)
     await _switch(poster, f"{root}.S")
-    got = [await _woken_by(ctx, sub, poster, names)]
+    got = [await woken_by(ctx, sub, poster, names)]
     for _ in range(3):
         before = len(sub.phase_updates)
         await sub.post("WB1", PHASE_CHANGE, "")
-        got.append(await _woken_by(ctx, sub, poster, names))
+        got.append(await woken_by(ctx, sub, poster, names))
         _last_update(ctx, sub, before, "after PhaseChange")
     await sub.post("WB1", PHASE_CHANGE, "")
     await _switch(poster, f"{root}.T")
     await _switch(poster, f"{root}.S")
-    got.append(await _woken_by(ctx, sub, poster, names))
+    got.append(await woken_by(ctx, sub, poster, names))
     want = [["T1"], ["T2"], ["T3"], ["T1"], ["T1"]]
     ctx.check(got == want, f"woken by {got}", expected=f"{want} (OA-REG-17)")
 

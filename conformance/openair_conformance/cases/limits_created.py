@@ -14,6 +14,7 @@ import re
 
 from openair.protocol.message import Message
 from openair_conformance.cases._common import check_error
+from openair_conformance.cases._streams import create_stream_request
 from openair_conformance.cases.attachments import nested_attachments
 from openair_conformance.harness import CaseContext
 from openair_conformance.harness.checks import (
@@ -77,16 +78,7 @@ async def created_streams_count(ctx: CaseContext) -> None:
     for n in range(limit + 1):
         name = ctx.name(f"Made{n}")
         content = f'<stream name="{name}" whiteboard="WB1" idle="0"/>'
-        reply = await raw.request(
-            Message(
-                type="Psyclone.System.Create.Stream",
-                sender=ctx.name("Creator"),
-                to="Psyclone",
-                content=content,
-                content_is_xml=True,
-                language="xml",
-            )
-        )
+        reply = await raw.request(create_stream_request(ctx, content))
         if reply.type != "RECEIVE_ACCEPT":
             refusal = reply
             break

@@ -9,9 +9,8 @@ and who is subscribed to it are known exactly.
 
 from __future__ import annotations
 
-from openair.protocol.message import Message
 from openair_conformance.cases._common import check_error, esc
-from openair_conformance.cases._streams import StreamClient, create_stream
+from openair_conformance.cases._streams import StreamClient, create_stream, create_stream_request
 from openair_conformance.harness import CaseContext, TestModule
 from openair_conformance.model import Inconclusive
 from openair_conformance.registry import case
@@ -128,16 +127,7 @@ async def created_stream_bytes(ctx: CaseContext) -> None:
     content = (
         f'<stream name="{name}" whiteboard="WB1" type="{esc(ctx.type("Big"))}" maxsize="{over}"/>'
     )
-    reply = await raw.request(
-        Message(
-            type="Psyclone.System.Create.Stream",
-            sender=ctx.name("Creator"),
-            to="Psyclone",
-            content=content,
-            content_is_xml=True,
-            language="xml",
-        )
-    )
+    reply = await raw.request(create_stream_request(ctx, content))
     what = f"Psyclone.System.Create.Stream {content} (max-created-stream-bytes {limit})"
     if "max-created-streams" in reply.content:
         raise Inconclusive(f"setup: {what} was answered {reply.content!r}: no creations left")

@@ -17,6 +17,7 @@ from openair_conformance.cases._streams import (
     check_from,
     chunk,
     create_stream,
+    create_stream_request,
     marker,
     past_window,
     time_xml,
@@ -38,16 +39,7 @@ async def _resolves(ctx: CaseContext, raw: RawConnection, name: str) -> bool:
 
 
 async def _create_refused(ctx: CaseContext, raw: RawConnection, content: str, why: str) -> None:
-    reply = await raw.request(
-        Message(
-            type="Psyclone.System.Create.Stream",
-            sender=ctx.name("Creator"),
-            to="Psyclone",
-            content=content,
-            content_is_xml=True,
-            language="xml",
-        )
-    )
+    reply = await raw.request(create_stream_request(ctx, content))
     check_error(
         ctx, reply, names=("CONTENT_INVALID",), what=f"Create.Stream {why}", req="OA-XSTREAM-10"
     )
@@ -206,14 +198,7 @@ async def typed_addressing(ctx: CaseContext) -> None:
 async def _name_wins(ctx: CaseContext, raw: RawConnection, dual: str) -> None:
     """Create a stream named `dual` and one typed `dual`: `dual` addresses the first."""
     reply = await raw.request(
-        Message(
-            type="Psyclone.System.Create.Stream",
-            sender=ctx.name("Creator"),
-            to="Psyclone",
-            content=f'<stream name="{dual}" whiteboard="WB1"/>',
-            content_is_xml=True,
-            language="xml",
-        )
+        create_stream_request(ctx, f'<stream name="{dual}" whiteboard="WB1"/>')
     )
     ctx.check(
         reply.type == "RECEIVE_ACCEPT",

@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.stateful import Bundle, RuleBasedStateMachine, invariant, rule
 
-from openair.protocol.matching import PatternIndex, ascii_fold, matches
+from openair.protocol.matching import PatternIndex, ascii_fold, matcher, matches
 from openair.protocol.types import is_valid_pattern, is_valid_type
 
 # --- an independent statement of OA-MATCH-1..6 as a regular expression --------------------------
@@ -64,6 +64,15 @@ def test_generated_inputs_are_valid(pattern: str, type_: str) -> None:
 @given(patterns(), types)
 def test_matches_equals_regex_reference(pattern: str, type_: str) -> None:
     assert matches(pattern, type_) == reference_matches(pattern, type_)
+
+
+@given(patterns(), st.lists(types, max_size=6))
+def test_compiled_matcher_equals_matches(pattern: str, probes: list[str]) -> None:
+    # `matcher` compiles once (and tests `Prefix.*` as a prefix): the same answers (issue #19).
+    test = matcher(pattern)
+    for type_ in [*probes, pattern.removesuffix(".*"), pattern.removesuffix("*")]:
+        if is_valid_type(type_):
+            assert test(type_) == matches(pattern, type_), (pattern, type_)
 
 
 @given(patterns(), types)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import enum
 import string
-from collections.abc import Hashable
+from collections.abc import Callable, Hashable
 from typing import Generic, TypeVar
 
 K = TypeVar("K", bound=Hashable)
@@ -90,6 +90,25 @@ def matches(pattern: str, type_: str) -> bool:
     Both arguments are assumed valid (`openair.protocol.types.validate_pattern` / `validate_type`).
     """
     return _matches_compiled(_compile(ascii_fold(pattern)), ascii_fold(type_))
+
+
+def matcher(pattern: str) -> Callable[[str], bool]:
+    """Return a test of types equal to `lambda t: matches(pattern, t)`, compiled once.
+
+    For one pattern against many types (a retrieve's scan of a whiteboard's history): the
+    pattern is folded and split once, and `Prefix.*`, the common case, is a prefix test.
+    """
+    compiled = _compile(ascii_fold(pattern))
+    parts, root = compiled
+    if root is not None and len(parts) == 2 and not parts[1]:  # `Prefix.*` (OA-MATCH-4)
+        prefix, whole = parts[0], root[0]
+
+        def subtree(type_: str) -> bool:
+            folded = ascii_fold(type_)
+            return folded.startswith(prefix) or folded == whole
+
+        return subtree
+    return lambda type_: _matches_compiled(compiled, ascii_fold(type_))
 
 
 # --- the Psyclone 1.1.7 model -------------------------------------------------------------------

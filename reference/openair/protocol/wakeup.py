@@ -42,6 +42,7 @@ from openair.protocol.xmlsafe import local_name
 __all__ = [
     "WAKEUP_TYPE",
     "EncodedCopies",
+    "PeekedCopies",
     "Wakeup",
     "assemble_wakeup",
     "attach_wakeup",
@@ -148,6 +149,19 @@ class EncodedCopies:
         self._bytes = 0
         self._xml: dict[int, tuple[Message, str]] = {}
 
+    def peek(self, msg: Message) -> str | None:
+        """Return the cached XML of `msg`, or None; it never changes the cache.
+
+        One dict look-up: safe on a worker thread while the owner's thread adds and evicts
+        (a deferred wakeup is built there, issue #19).
+        """
+        hit = self._xml.get(id(msg))
+        return hit[1] if hit is not None and hit[0] is msg else None
+
+    def reader(self) -> PeekedCopies:
+        """Return a view of this cache that encodes what it misses and never writes."""
+        return PeekedCopies(self)
+
     def xml(self, msg: Message) -> str:
         """Return `stored_xml(msg)`, encoding it only once while it stays in the cache."""
         hit = self._xml.get(id(msg))
@@ -166,7 +180,21 @@ class EncodedCopies:
         return text
 
 
-def collection_xml(msgs: Sequence[Message], copies: EncodedCopies | None = None) -> str:
+class PeekedCopies:
+    """`EncodedCopies` read from another thread: a hit is reused, a miss encoded, nothing kept."""
+
+    def __init__(self, copies: EncodedCopies) -> None:
+        self._copies = copies
+
+    def xml(self, msg: Message) -> str:
+        """Return `stored_xml(msg)`, from the cache when it holds it."""
+        hit = self._copies.peek(msg)
+        return hit if hit is not None else stored_xml(msg)
+
+
+def collection_xml(
+    msgs: Sequence[Message], copies: EncodedCopies | PeekedCopies | None = None
+) -> str:
     """Return the RetrievedMessages `<objectcollection>` of `msgs` (OA-WAKE-3)."""
     if not msgs:
         return _EMPTY_COLLECTION

@@ -449,6 +449,7 @@ class Server:
         self.router.status_extra = self._status_counters
         self.router.queued_bytes = self.dispatcher.queued_bytes  # OA-LIM-14
         self.router.defer_large_replies = True  # written on a worker thread (issue #19)
+        self.router.defer_large_wakeups = True  # so are large wakeups (Dispatcher.builds)
         self.router.defer_store_replies = True  # a cluster's acknowledgements (spec 17)
         if self.cluster is not None:
             self.router.elsewhere = self.cluster.store.forward_soon  # OA-CLU-8

@@ -17,6 +17,7 @@ from typing import Protocol
 from openair.server.aio.delivery import ModuleDelivery
 from openair.server.aio.protocol import ServerConnection
 from openair.server.aio.scheduling import DEFAULT_TURN_BUDGET, TurnGate
+from openair.server.aio.wakeupbuilds import Builds
 from openair.server.core.queues import QueueItem
 from openair.server.core.router import Delivery, ModuleInfo
 from openair.server.core.streamspec import StoredSample
@@ -81,9 +82,18 @@ class Dispatcher:
         self.on_drop: Callable[[str, QueueItem], None] | None = None
         #: Called with (module, item) for each acknowledged delivery: the monitor's latency tap.
         self.on_delivered: Callable[[str, QueueItem], None] | None = None
+        self.builds = Builds(self._queue, self._build_failed)  # large wakeups (issue #19)
 
     def push(self, delivery: Delivery) -> None:
-        """Queue a delivery for its module, dropping per OA-DELIV-9 when the queue is full."""
+        """Queue a delivery for its module, dropping per OA-DELIV-9 when the queue is full.
+
+        A large wakeup is written on the worker first, and the module's later deliveries wait
+        behind it (`wakeupbuilds.Builds`, issue #19).
+        """
+        if not self.builds.offer(delivery):
+            self._queue(delivery)
+
+    def _queue(self, delivery: Delivery) -> None:
         md = self.modules.get(delivery.module)
         if md is None:
             md = self.modules[delivery.module] = ModuleDelivery(delivery.module, self)
@@ -99,6 +109,10 @@ class Dispatcher:
                     victims[-1].priority,
                     md.queue.held_bytes,
                 )
+
+    def _build_failed(self, module: str) -> None:
+        self.host.dropped(module, 1, "DELIVERY_FAILED")
+        self.idle_check()
 
     def push_sample(self, module: str, stream: str, sample: StoredSample, capacity: int) -> None:
         """Buffer a stream sample for a subscribed module (OA-STREAM-8, OA-STREAM-14)."""
@@ -117,18 +131,20 @@ class Dispatcher:
 
     async def discard(self, module: str) -> int:
         """Drop a module's queue and task (its session ended, OA-SESS-15); return the count."""
+        waited = self.builds.discard(module)
         md = self.modules.pop(module, None)
         if md is None:
-            return 0
-        left = await md.stop()
+            self.idle_check()
+            return waited
+        left = waited + await md.stop()
         log.info("event=queue_discarded module=%s count=%d", module, left)
         self.idle_check()
         return left
 
     @property
     def pending(self) -> int:
-        """Deliveries not yet finished, over all modules."""
-        return sum(md.pending for md in self.modules.values())
+        """Deliveries not yet finished, over all modules (those still being written too)."""
+        return len(self.builds) + sum(md.pending for md in self.modules.values())
 
     def idle_check(self) -> None:
         """Wake `drained()` waiters when nothing is eligible or in flight any more."""
@@ -140,7 +156,7 @@ class Dispatcher:
         self._idle_waiters.clear()
 
     def _busy(self) -> bool:
-        return any(md.pending for md in self.modules.values())
+        return bool(len(self.builds)) or any(md.pending for md in self.modules.values())
 
     async def drained(self) -> None:
         """Return once every queue is empty and nothing is in flight (OA-SESS-24's flush)."""
@@ -152,6 +168,9 @@ class Dispatcher:
     async def stop(self) -> int:
         """Stop every task; count what was left as DELIVERY_FAILED (OA-SESS-24)."""
         left = 0
+        for name, n in self.builds.clear().items():
+            self.host.dropped(name, n, "DELIVERY_FAILED")
+            left += n
         modules = list(self.modules.items())
         counts = await asyncio.gather(*(md.stop() for _, md in modules))  # each one bounded
         for (name, md), n in zip(modules, counts, strict=True):

@@ -34,6 +34,12 @@ class Delivery:
     expires_ns: int = 0  # OA-DELIV-14: dropped when still unsent at this time (0: never)
     # A wakeup's stored trigger message, for internal modules (OA-CONF-8: no XML to parse).
     trigger: Message | None = field(default=None, compare=False, repr=False)
+    # A large wakeup still to be written (issue #19): `message` is then only its preview (the
+    # envelope and PhaseSpec, `WakeupParts.preview`) and the adapter queues the delivery with
+    # what `build()` returns, (message, wire), written off its event loop, in the module's order.
+    build: Callable[[], tuple[Message, bytes | None]] | None = field(
+        default=None, compare=False, repr=False
+    )
 
 
 @dataclass(frozen=True, slots=True)

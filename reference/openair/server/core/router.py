@@ -30,14 +30,7 @@ from openair.protocol.matching import PatternIndex, ascii_fold
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
 from openair.protocol.types import validate_type
-from openair.protocol.wakeup import (
-    EncodedCopies,
-    assemble_wakeup,
-    attach_wakeup,
-    collection_xml,
-    fit_attachments,
-    phase_spec_xml,
-)
+from openair.protocol.wakeup import EncodedCopies, attach_wakeup, fit_attachments, phase_spec_xml
 from openair.server.core import commands as cmd
 from openair.server.core.auth import AuthGate
 from openair.server.core.config import (
@@ -52,7 +45,7 @@ from openair.server.core.queues import item_bytes
 from openair.server.core.retrieve import RETRIEVE, RETRIEVES, prepare_retrieve, registration_results
 from openair.server.core.router_commands import ComponentCommands
 from openair.server.core.router_registrations import Registrations
-from openair.server.core.router_state import IndexedTriggers, ModuleCounters
+from openair.server.core.router_state import IndexedTriggers, ModuleCounters, urgent_enough
 from openair.server.core.router_streams import StreamRouting, stream_specs
 from openair.server.core.sessions import ConnId, ModuleInfo, Sessions
 from openair.server.core.store import HistoryStore
@@ -63,6 +56,7 @@ from openair.server.core.streamservice import (
     WaitReply,
     is_media_command,
 )
+from openair.server.core.wakeups import LARGE_WAKEUP, TriggerXml, WakeupParts
 from openair.server.core.whiteboard import Whiteboard
 
 __all__ = [
@@ -120,6 +114,8 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         self.defer_large_replies = False
         # The adapter waits for a cluster's store without blocking (Outcome.awaited, spec 17).
         self.defer_store_replies = False
+        # The adapter writes large wakeups on a worker thread (Delivery.build, issue #19).
+        self.defer_large_wakeups = False
         #: A cluster node's sending to another node's module (OA-CLU-8); None: not a node.
         self.elsewhere: Callable[[Message], concurrent.futures.Future[int] | None] | None = None
         self.address = address
@@ -441,7 +437,7 @@ class Router(ComponentCommands, StreamRouting, Registrations):
             return ()
         base_ns = board.last_received_ns  # the receivedTime stamped on `stored`
         posted = cmd.ms_time(now_ns)
-        trigger_xml = self._copies.xml(stored)  # the stored copy is written once per post
+        trigger = TriggerXml(stored)  # the stored copy is written once per post
         attached, limits = bool(stored.binary), self.limits  # OA-WB-13: its attachments
         deliveries: list[Delivery] = []
         for name in sorted(chosen) if len(chosen) > 1 else chosen:
@@ -467,19 +463,25 @@ class Router(ComponentCommands, StreamRouting, Registrations):
             omitted, chunked = 0, attached or any(m.binary for m in retrieved)
             if chunked:  # OA-WAKE-11: leave retrieved messages out until the chunks fit
                 retrieved, omitted = fit_attachments(stored, retrieved, limits.max_frame_binary)
-            wakeup, wire = assemble_wakeup(
-                trigger_xml=trigger_xml,
-                retrieved_xml=collection_xml(retrieved, self._copies),
+            parts = WakeupParts(
+                trigger=trigger,
+                retrieved=retrieved,
                 # OA-WAKE-4: an empty phase without a registration
                 phase_xml=self._phase_xml(name, reg, phase, pattern),
                 whiteboard=board.name,
                 module=name,
                 id=cmd.fresh_id(),
                 posted=posted,
+                copies=self._copies,
             )
+            build = None
             if chunked:
-                wakeup = attach_wakeup(wakeup, stored, retrieved, omitted)  # OA-WAKE-10
+                wakeup = attach_wakeup(parts.write()[0], stored, retrieved, omitted)  # OA-WAKE-10
                 wire = None  # the spliced frame has no chunks: the sender writes it
+            elif self.defer_large_wakeups and parts.size > LARGE_WAKEUP:  # issue #19
+                wakeup, wire, build = parts.preview(), None, parts.build
+            else:
+                wakeup, wire = parts.write()
             deliveries.append(
                 Delivery(
                     module=name,
@@ -490,6 +492,7 @@ class Router(ComponentCommands, StreamRouting, Registrations):
                     wire=wire,
                     expires_ns=self._expiry(stored, base_ns),  # OA-DELIV-14
                     trigger=stored,
+                    build=build,
                 )
             )
             self._module_counters(name).queued += 1
@@ -532,7 +535,7 @@ class Router(ComponentCommands, StreamRouting, Registrations):
                 continue  # OA-TRIG-2: case-insensitive; "" is any whiteboard
             if sender == name and not triggers.allow_self:
                 continue  # OA-TRIG-4, OA-REG-6
-            if self._qos and not _urgent_enough(triggers, i, stored):
+            if self._qos and not urgent_enough(triggers, i, stored):
                 continue  # OA-TRIG-5: an alarm trigger wants time-critical messages only
             current = best.get(name)
             if current is None or (after, i) < current:
@@ -579,8 +582,6 @@ class Router(ComponentCommands, StreamRouting, Registrations):
 
     # --- registrations --------------------------------------------------------------------
 
-    # --- session commands -----------------------------------------------------------------
-
     # --- helpers --------------------------------------------------------------------------
 
     def _error(self, msg: Message, err: OpenAIRError, sender: str, now_ns: int) -> Message:
@@ -591,10 +592,3 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         if counters is None:
             counters = self._counters[name] = ModuleCounters()
         return counters
-
-
-def _urgent_enough(triggers: IndexedTriggers, i: int, stored: Message) -> bool:
-    """Whether trigger i (an alarm trigger or not) accepts the message's priority (OA-TRIG-5)."""
-    phase = triggers.phase
-    limit = phase.triggers[i].max_priority if phase is not None else None
-    return limit is None or stored.effective_priority <= limit

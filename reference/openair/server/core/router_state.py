@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     from openair.server.core.streamservice import StreamService
     from openair.server.core.whiteboard import Whiteboard
 
-__all__ = ["IndexedTriggers", "ModuleCounters", "RouterState"]
+__all__ = ["IndexedTriggers", "ModuleCounters", "RouterState", "urgent_enough"]
 
 
 @dataclass(slots=True)
@@ -114,3 +114,10 @@ class RouterState:
         # router_commands.py
         def _session_reply(self, msg: Message, sender: str, now_ns: int) -> Outcome: ...
         def _reserved(self, name: str) -> bool: ...
+
+
+def urgent_enough(triggers: IndexedTriggers, i: int, stored: Message) -> bool:
+    """Whether trigger i (an alarm trigger or not) accepts the message's priority (OA-TRIG-5)."""
+    phase = triggers.phase
+    limit = phase.triggers[i].max_priority if phase is not None else None
+    return limit is None or stored.effective_priority <= limit

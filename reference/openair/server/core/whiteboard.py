@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from openair.protocol.content import ContentMatch, RetrieveSpec
 from openair.protocol.contentmatch import canonical_xml_text, content_glob, text_of
 from openair.protocol.errors import StoreFailedError
-from openair.protocol.matching import matches
+from openair.protocol.matching import matcher
 from openair.protocol.message import Message
 from openair.server.core.commands import ms_time
 from openair.server.core.config import DEFAULT_MAXCOUNT, DEFAULT_WB_PRIORITY, WhiteboardConfig
@@ -391,13 +391,13 @@ def _criteria(spec: RetrieveSpec) -> Callable[[Message], bool]:
     """Return the AND of the spec's per-message criteria (OA-RET-3)."""
     checks: list[Callable[[Message], bool]] = []
     if spec.pattern and spec.pattern != "*":
-        pattern = spec.pattern
+        match = matcher(spec.pattern)  # OA-MATCH-8: compiled once per retrieve
         seen: dict[str, bool] = {}  # types repeat: match each distinct type once
 
         def type_ok(msg: Message) -> bool:
             hit = seen.get(msg.type)
             if hit is None:
-                hit = seen[msg.type] = matches(pattern, msg.type)  # OA-MATCH-8
+                hit = seen[msg.type] = match(msg.type)
             return hit
 
         checks.append(type_ok)

@@ -1,0 +1,93 @@
+"""Large wakeups written on the worker thread, queued in each module's order (issue #19).
+
+The router hands over a delivery whose wakeup is larger than `core.wakeups.LARGE_WAKEUP` with
+`Delivery.build` instead of its text (the writing of a megabyte held every client's turn for
+5-11 ms). `Builds` runs each build on `budgets.off_loop_executor()` and queues the built
+delivery; until then every later delivery to the same module waits behind it, so a module's
+deliveries reach its queue in the order the router decided them (OA-DELIV-5, spec 10). Other
+modules' deliveries are not held. A build holds only references to stored copies; what it
+writes goes into the module's queue, whose byte budget (OA-LIM-8) applies as to any delivery;
+one worker writes one wakeup at a time.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import logging
+from collections import deque
+from collections.abc import Callable
+
+from openair.protocol.message import Message
+from openair.server.aio.budgets import off_loop_executor
+from openair.server.core.outcome import Delivery
+
+__all__ = ["Builds"]
+
+log = logging.getLogger("openair.server")
+
+
+class Builds:
+    """The deliveries waiting for a build, per module, in the router's order."""
+
+    def __init__(self, queue: Callable[[Delivery], None], failed: Callable[[str], None]) -> None:
+        self._queue = queue  # queues a ready delivery (the dispatcher's own push)
+        self._failed = failed  # a build raised: counted as a delivery that failed
+        self._behind: dict[str, deque[Delivery]] = {}
+
+    def __len__(self) -> int:
+        """Deliveries waiting here (a build in progress and those behind it)."""
+        return sum(len(held) for held in self._behind.values())
+
+    def offer(self, delivery: Delivery) -> bool:
+        """Take `delivery` when it must wait (a build, or behind one); False: queue it now."""
+        held = self._behind.get(delivery.module)
+        if held is not None:
+            held.append(delivery)
+            return True
+        if delivery.build is None:
+            return False
+        self._behind[delivery.module] = deque((delivery,))
+        self._start(delivery)
+        return True
+
+    def discard(self, module: str) -> int:
+        """Forget what waits for `module` (its session ended); return how many."""
+        return len(self._behind.pop(module, ()))
+
+    def clear(self) -> dict[str, int]:
+        """Forget everything (the server stops); return how many waited, per module."""
+        left = {module: len(held) for module, held in self._behind.items()}
+        self._behind.clear()
+        return left
+
+    def _start(self, delivery: Delivery) -> None:
+        build = delivery.build
+        assert build is not None
+        future = asyncio.get_running_loop().run_in_executor(off_loop_executor(), build)
+        future.add_done_callback(lambda done: self._built(delivery, done))
+
+    def _built(
+        self, delivery: Delivery, done: asyncio.Future[tuple[Message, bytes | None]]
+    ) -> None:
+        held = self._behind.get(delivery.module)
+        if held is None or held[0] is not delivery:
+            return  # discarded while it was written
+        held.popleft()
+        if done.cancelled() or done.exception() is not None:
+            log.error(
+                "event=wakeup_build_failed module=%s id=%s error=%r",
+                delivery.module,
+                delivery.message.id,
+                None if done.cancelled() else done.exception(),
+            )
+            self._failed(delivery.module)
+        else:
+            message, wire = done.result()
+            self._queue(dataclasses.replace(delivery, message=message, wire=wire, build=None))
+        while held and held[0].build is None:
+            self._queue(held.popleft())
+        if held:
+            self._start(held[0])
+        else:
+            del self._behind[delivery.module]

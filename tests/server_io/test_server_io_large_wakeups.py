@@ -1,0 +1,135 @@
+"""Large wakeups are written on the worker thread, in each module's order (issue #19).
+
+A wakeup of more than `LARGE_WAKEUP` bytes of text (a large post, many retrieved messages) held
+every client's turn while it was written on the event loop. The server now writes it on the
+worker (`Dispatcher.builds`); the module still gets its wakeups in the order of the posts, and
+a build in progress neither outlives the module's session nor stalls the server's stop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections.abc import Iterator
+
+import pytest
+from server_io_helpers import BOUND, Raw, TestModule, run, serving
+
+from openair.protocol.message import Message
+from openair.protocol.wakeup import parse_wakeup
+from openair.server.aio.app import ServerOptions
+from openair.server.core.wakeups import LARGE_WAKEUP, WakeupParts
+
+BIG = "b" * (LARGE_WAKEUP + 1)
+
+
+@pytest.fixture
+def builders(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
+    """Record the thread of every deferred build."""
+    threads: list[str] = []
+    original = WakeupParts.build
+
+    def build(self: WakeupParts) -> tuple[Message, bytes | None]:
+        threads.append(threading.current_thread().name)
+        return original(self)
+
+    monkeypatch.setattr(WakeupParts, "build", build)
+    yield threads
+
+
+def _post(n: int, content: str) -> Message:
+    return Message(type=f"Test.Item.{n}", to="WB1", sender="Poster", content=content, id=f"p{n}")
+
+
+def test_large_wakeups_are_built_on_the_worker_and_arrive_in_order(builders: list[str]) -> None:
+    async def body() -> None:
+        server = await serving()
+        module = TestModule("Reader", server.port)
+        await module.bind(listen=False)
+        await module.subscribe()
+        poster = await Raw.open(server.port)
+        contents = [BIG, "s", "s", BIG, "s", BIG, BIG, "s"]
+        for n, content in enumerate(contents):
+            poster.send(_post(n, content))  # pipelined: the small ones overtake nothing
+        for _ in contents:
+            assert (await poster.recv()).type == "RECEIVE_ACCEPT"
+        await module.wait_for(len(contents))
+        triggers = [parse_wakeup(w).trigger for w in module.wakeups()]
+        assert [t.id if t else None for t in triggers] == [f"p{n}" for n in range(len(contents))]
+        assert [t.content if t else None for t in triggers] == contents
+        assert len(builders) == 4
+        assert all(name.startswith("openair-large") for name in builders), builders
+        await asyncio.wait_for(server.dispatcher.drained(), BOUND)
+        assert server.dispatcher.pending == 0
+        await poster.close()
+        await module.close()
+        await server.stop()
+
+    run(body)
+
+
+def test_a_build_in_progress_when_the_module_leaves_is_forgotten(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    release = threading.Event()
+    original = WakeupParts.build
+
+    def slow_build(self: WakeupParts) -> tuple[Message, bytes | None]:
+        release.wait(BOUND)
+        return original(self)
+
+    monkeypatch.setattr(WakeupParts, "build", slow_build)
+
+    async def body() -> None:
+        server = await serving()
+        module = TestModule("Leaver", server.port)
+        await module.bind(listen=False)
+        await module.subscribe()
+        poster = await Raw.open(server.port)
+        assert (await poster.request(_post(0, BIG))).type == "RECEIVE_ACCEPT"
+        assert (await poster.request(_post(1, "s"))).type == "RECEIVE_ACCEPT"
+        assert server.dispatcher.pending == 2  # one being written, one behind it
+        await module.close()  # the session ends: its deliveries are discarded (OA-SESS-15)
+        while server.router.module("Leaver") is not None:
+            await asyncio.sleep(0.01)
+        await asyncio.wait_for(server.dispatcher.drained(), BOUND)
+        release.set()
+        await asyncio.sleep(0.05)  # the build finishes: nothing is queued for a gone module
+        assert server.dispatcher.pending == 0
+        assert "Leaver" not in server.dispatcher.modules
+        assert (await poster.request(_post(2, "s"))).type == "RECEIVE_ACCEPT"  # still serving
+        await poster.close()
+        await server.stop()
+
+    run(body)
+
+
+def test_the_server_stops_with_a_build_that_never_ends(monkeypatch: pytest.MonkeyPatch) -> None:
+    release = threading.Event()
+    original = WakeupParts.build
+
+    def stuck_build(self: WakeupParts) -> tuple[Message, bytes | None]:
+        release.wait(BOUND)
+        return original(self)
+
+    monkeypatch.setattr(WakeupParts, "build", stuck_build)
+
+    async def body() -> None:
+        server = await serving(ServerOptions(grace_s=0.2))
+        module = TestModule("Waiting", server.port)
+        await module.bind(listen=False)
+        await module.subscribe()
+        poster = await Raw.open(server.port)
+        assert (await poster.request(_post(0, BIG))).type == "RECEIVE_ACCEPT"
+        assert (await poster.request(_post(1, "s"))).type == "RECEIVE_ACCEPT"
+        await poster.close()
+        assert server.dispatcher.pending == 2
+        try:
+            await asyncio.wait_for(server.stop(), BOUND)  # OA-SESS-24: the grace, then stop
+        finally:
+            release.set()
+        assert server.dropped_total.get("DELIVERY_FAILED") == 2  # both counted, not lost silently
+        assert server.dispatcher.pending == 0
+        await module.close()
+
+    run(body)

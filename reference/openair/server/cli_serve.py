@@ -21,6 +21,7 @@ from openair.protocol.auth import SecretsError
 from openair.secretsfile import load_secrets
 from openair.server.aio.app import Server, ServerOptions, start_server
 from openair.server.aio.budgets import return_large_buffers
+from openair.server.aio.fairselect import fair_event_loop
 from openair.server.cli_budgets import budget_options
 from openair.server.core.config import ConfigError, ServerLimits
 from openair.server.core.store import StoreSpecError
@@ -362,7 +363,9 @@ def serve(
         ),
     )
     try:
-        asyncio.run(_run(options))
+        # issue #19: a flood's sockets wait their turn behind other addresses' (fairselect)
+        with asyncio.Runner(loop_factory=fair_event_loop if fair_slice_ms > 0 else None) as run:
+            run.run(_run(options))
     except (ConfigError, StoreSpecError) as exc:
         click.echo(f"openair serve: {exc}", err=True)
         sys.exit(2)

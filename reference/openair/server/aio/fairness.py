@@ -21,10 +21,13 @@ its slice end sooner.
 
 from __future__ import annotations
 
+import asyncio
 import math
 import time
 from collections import deque
 from collections.abc import Callable
+
+from openair.server.aio.fairselect import postponed_on
 
 __all__ = ["READ_COST_S_PER_BYTE", "Turns"]
 
@@ -98,13 +101,19 @@ class Turns:
 
     @staticmethod
     def counters_of(turns: Turns | None) -> dict[str, object]:
-        """STATUS's `fairness` counters: the slice, the waits so far, the waiting now."""
+        """STATUS's `fairness` counters: the slice, the waits so far, the waiting now, and the
+        socket events the loop's `FairSelector` postponed (0 when the loop has none)."""
+        try:
+            postponed = postponed_on(asyncio.get_running_loop())  # the selector's (fairselect)
+        except RuntimeError:  # not on the server's loop
+            postponed = 0
         if turns is None:
-            return {"slice_ms": 0, "deferred": 0, "waiting": 0}
+            return {"slice_ms": 0, "deferred": 0, "waiting": 0, "postponed": postponed}
         return {
             "slice_ms": turns.slice * 1000,
             "deferred": turns.deferred,
             "waiting": turns.waiting,
+            "postponed": postponed,
         }
 
     @property

@@ -12,7 +12,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from openair.protocol import grammar, xmlsafe
+from openair.protocol import fastcodec, grammar, xmlsafe
+from openair.protocol.codec import to_frame
+from openair.protocol.message import Message
 
 _PIECES = [
     b"<",
@@ -45,9 +47,43 @@ def test_more_than_is_a_count(data: bytes, most: int) -> None:
     assert xmlsafe._more_than(data, b"<", most) == (data.count(b"<") > most)
 
 
-@given(st.text(max_size=30) | st.text(st.characters(max_codepoint=0x7F), max_size=30))
-def test_has_non_xml_char_is_the_expression(text: str) -> None:
-    assert grammar.has_non_xml_char(text) == (grammar.NOT_XML_CHAR.search(text) is not None)
+@given(
+    st.text(max_size=30) | st.text(st.characters(max_codepoint=0x7F), max_size=30),
+    st.integers(1, 9),
+)
+def test_has_non_xml_char_is_the_expression(text: str, window: int) -> None:
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(grammar, "_WINDOW", window)  # a character on every side of a window edge
+        assert grammar.has_non_xml_char(text) == (grammar.NOT_XML_CHAR.search(text) is not None)
+
+
+# --- fastcodec: a large canonical document's content checked apart from its envelope ----------
+
+_BODY_PIECES = ["x", "é", "<", "&amp;", "\x00", "\x0b", "\r", "\t", "\n", "\ufffe", ">", '"', "/"]
+_LANGUAGES = ["", "text", "xml", "a>b", "a/", "q"]
+
+
+@given(
+    st.lists(st.sampled_from(_BODY_PIECES), max_size=12),
+    st.sampled_from(_LANGUAGES),
+    st.sampled_from(["", "<comment>c</comment>", "<wbid>00000007</wbid>"]),
+    st.sampled_from(["</content></message>", "</content></message> ", "/></message>"]),
+    st.integers(1, 9),
+)
+def test_large_canonical_documents_give_the_expressions_groups(
+    pieces: list[str], language: str, middle: str, end: str, window: int
+) -> None:
+    body = "".join(p.encode().decode("unicode_escape") for p in pieces)
+    head = "<message><type>T.x</type><id>i</id><from>A</from><to>WB1</to><cc/><stored/>"
+    head += f"<isresponse/>{middle}"
+    text = f'{head}<content language="{language}"' + (
+        end if end.startswith("/") else f">{body}{end}"
+    )
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fastcodec, "_LARGE", 0)  # every document takes the large path
+        patch.setattr(fastcodec, "_WINDOW", window)
+        found = fastcodec._CANONICAL.fullmatch(text)
+        assert fastcodec._canonical_groups(text) == (None if found is None else found.groups())
 
 
 @pytest.mark.parametrize("char", ["\x00", "\x08", "\x0b", "\x1f", "\ufffe", "\ud800"])
@@ -58,3 +94,19 @@ def test_the_characters_xml_forbids_are_found(char: str) -> None:
 @pytest.mark.parametrize("char", ["\t", "\n", "\r", " ", "\x7f", "é", "\U0001f600"])
 def test_the_characters_xml_allows_are_not(char: str) -> None:
     assert not grammar.has_non_xml_char(f"ok{char}ok")
+
+
+@pytest.mark.parametrize("body", ["x" * 70_000, "é" * 70_000, "x" * 70_000 + "&amp;"])
+def test_a_large_canonical_post_decodes_through_the_large_path(body: str) -> None:
+    msg = Message(type="T.x", to="WB1", sender="A", content=body.replace("&amp;", "&"))
+    xml = to_frame(msg).xml
+    assert len(xml) > fastcodec._LARGE
+    with pytest.MonkeyPatch.context() as patch:
+        checked: list[int] = []
+        plain = fastcodec._plain_text
+        patch.setattr(
+            fastcodec, "_plain_text", lambda text: checked.append(len(text)) or plain(text)
+        )
+        decoded = fastcodec.fast_decode(bytes(xml))
+    assert checked == [len(body)]  # the content was checked apart from the envelope
+    assert decoded == msg

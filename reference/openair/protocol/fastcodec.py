@@ -143,14 +143,62 @@ def fast_decode(
     if "]]>" in text:
         return None  # the sequence XML forbids in text
     try:
-        found = _CANONICAL.fullmatch(text)  # its text classes exclude what OA-MSG-14 forbids
-        if found is not None:
-            return _canonical(found.groups(), "&" in text, chunks, clamp_priority)
+        groups = _canonical_groups(text)  # its text classes exclude what OA-MSG-14 forbids
+        if groups is not None:
+            return _canonical(groups, "&" in text, chunks, clamp_priority)
         if _BAD_CHAR.search(text) is not None:
             return None  # OA-MSG-14: the lxml path refuses it
         return _decode(text, chunks, clamp_priority)
     except _Decline:
         return None
+
+
+#: Past this many characters the content of a canonical document is checked apart (below).
+_LARGE = 64 * 1024
+_CONTENT_AT = '<content language="'
+_BODY_END = "</content></message>"
+#: The ASCII characters `_TEXT` allows: tab, newline, 0x20 on, but not `<`.
+_TEXT_ASCII = bytes([9, 10, *(c for c in range(0x20, 0x80) if c != 0x3C)])
+_NOT_TEXT = re.compile("[" + _TEXT[2:])  # a character `_TEXT` does not allow
+_WINDOW = 64 * 1024
+
+
+def _canonical_groups(text: str) -> tuple[Any, ...] | None:
+    """Return the groups of `_CANONICAL.fullmatch(text)`, or None when it does not match.
+
+    A large document's content is not scanned by the expression: one match of a megabyte holds
+    the interpreter lock 2.7 ms on the worker, and the event loop waits that long for it
+    (issue #19). The envelope, up to the content's start tag, is matched with an empty content;
+    the content is checked for the characters `_TEXT` allows, at memory speed and in windows
+    between which the loop may take the lock. The answer is the expression's.
+    """
+    if len(text) <= _LARGE or not text.endswith(_BODY_END):
+        found = _CANONICAL.fullmatch(text)
+        return None if found is None else found.groups()
+    at = text.find(_CONTENT_AT)
+    quote = text.find('"', at + len(_CONTENT_AT)) if at >= 0 else -1
+    if quote < 0 or text[quote + 1 : quote + 2] != ">":
+        found = _CANONICAL.fullmatch(text)  # `<content .../>` or not canonical: as it is
+        return None if found is None else found.groups()
+    body = text[quote + 2 : len(text) - len(_BODY_END)]
+    if not _plain_text(body):
+        return None  # a `<` or a character XML forbids: not this layout
+    found = _CANONICAL.fullmatch(text[: quote + 2] + _BODY_END)
+    if found is None:
+        return None
+    groups = found.groups()
+    return (*groups[:-1], body)  # the content is the last group
+
+
+def _plain_text(body: str) -> bool:
+    """Whether `_TEXT*` matches the whole of `body`, in windows of `_WINDOW` characters."""
+    step = _WINDOW
+    if body.isascii():
+        return not any(
+            body[i : i + step].encode("ascii").translate(None, _TEXT_ASCII)
+            for i in range(0, len(body), step)
+        )
+    return all(_NOT_TEXT.search(body, i, i + step) is None for i in range(0, len(body), step))
 
 
 def _canonical(g: tuple[Any, ...], amp: bool, chunks: tuple[bytes, ...], clamp: bool) -> Message:

@@ -74,10 +74,9 @@ def decode_message(
     of refusing it: what a client does with the deliveries and replies it receives (OA-MSG-19);
     a server validating a post leaves it False (OA-MSG-6).
     """
-    if isinstance(xml, bytes):  # a bytearray is a large frame's own buffer: lxml's to read
-        fast = fast_decode(xml, chunks, limits, clamp_priority=clamp_priority)
-        if fast is not None:
-            return fast
+    fast = fast_decode(xml, chunks, limits, clamp_priority=clamp_priority)
+    if fast is not None:
+        return fast
     return decode_with_lxml(xml, chunks, limits, clamp_priority=clamp_priority)
 
 

@@ -90,7 +90,7 @@ def _ttl_uncounted(mp: pytest.MonkeyPatch) -> None:
 
 @mutant("alarm-trigger-ignored", "maxpriority is read but every priority fires", "OA-TRIG-5")
 def _alarm_trigger_ignored(mp: pytest.MonkeyPatch) -> None:
-    mp.setattr(router, "_urgent_enough", lambda triggers, i, stored: True)
+    mp.setattr(router, "urgent_enough", lambda triggers, i, stored: True)
 
 
 @mutant("bare-streams-refused", "stream elements outside <module> are refused", "OA-REG-16")

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 import warnings
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -100,19 +101,23 @@ def _pattern_limit(mp: pytest.MonkeyPatch) -> None:
 )
 def _regex_patterns(mp: pytest.MonkeyPatch) -> None:
     def make(original: Fn) -> Fn:
-        def matches(pattern: str, type_: str) -> bool:
+        def matcher(pattern: str) -> Callable[[str], bool]:
             if "*" in pattern:
-                return bool(original(pattern, type_))
-            try:
-                with warnings.catch_warnings():  # `[A&&B]` warns of a future set operation
-                    warnings.simplefilter("ignore", FutureWarning)
-                    return re.fullmatch(ascii_fold(pattern), ascii_fold(type_)) is not None
-            except re.error:
-                return False
+                return original(pattern)  # type: ignore[no-any-return]
 
-        return matches
+            def matches(type_: str) -> bool:
+                try:
+                    with warnings.catch_warnings():  # `[A&&B]` warns of a future set operation
+                        warnings.simplefilter("ignore", FutureWarning)
+                        return re.fullmatch(ascii_fold(pattern), ascii_fold(type_)) is not None
+                except re.error:
+                    return False
 
-    wrap(mp, whiteboard, "matches", make)
+            return matches
+
+        return matcher
+
+    wrap(mp, whiteboard, "matcher", make)
 
 
 # --- the envelope (3.2) --------------------------------------------------------------------------

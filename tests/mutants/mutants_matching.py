@@ -111,7 +111,9 @@ def _matcher(mp: pytest.MonkeyPatch, **switches: Any) -> None:
     """Make triggers (the router's index) and retrieves (the whiteboard) use a faulty matcher."""
     fault = Fault(**switches)
     mp.setattr(router, "PatternIndex", type("FaultyIndex", (_ScanIndex,), {"fault": fault}))
-    mp.setattr(whiteboard, "matches", lambda pattern, type_: spec_match(pattern, type_, fault))
+    mp.setattr(
+        whiteboard, "matcher", lambda pattern: functools.partial(spec_match, pattern, fault=fault)
+    )
 
 
 @mutant("match-star-stops-at-dots", "`*` matches no dot", "OA-MATCH-3")

@@ -57,6 +57,7 @@ def test_a_large_wakeup_is_built_later_to_the_same_message_and_frame(
     later = _wakeup(True, registration, fill, content, monkeypatch)
     assert now.build is None and now.wire is not None
     assert later.build is not None and later.wire is None
+    assert later.build_bytes > LARGE_WAKEUP  # what the adapter counts while it waits
     message, wire = later.build()
     assert message == now.message
     assert wire == now.wire

@@ -133,3 +133,57 @@ def test_the_server_stops_with_a_build_that_never_ends(monkeypatch: pytest.Monke
         await module.close()
 
     run(body)
+
+
+def test_past_the_waiting_budget_a_wakeup_is_written_at_once_still_in_order(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    release = threading.Event()
+    threads: list[str] = []
+    original = WakeupParts.build
+
+    def build(self: WakeupParts) -> tuple[Message, bytes | None]:
+        threads.append(threading.current_thread().name)
+        if threading.current_thread() is not threading.main_thread():
+            release.wait(BOUND)  # the worker is behind
+        return original(self)
+
+    monkeypatch.setattr(WakeupParts, "build", build)
+    # Small posts (decoded on the loop, not behind the stuck worker) waking with 300 KiB of
+    # retrieved messages: large wakeups.
+    registration = (
+        '<module name="Reader"><triggers from="WB1"><trigger type="Test.Go.*"/></triggers>'
+        '<retrieves><retrieve type="Test.Fill.*"><latest>0</latest></retrieve></retrieves>'
+        "</module>"
+    )
+
+    async def body() -> None:
+        server = await serving()
+        builds = server.dispatcher.builds
+        poster = await Raw.open(server.port)
+        for n in range(300):
+            poster.send(
+                Message(type=f"Test.Fill.{n}", to="WB1", sender="Poster", content="f" * 1024)
+            )
+        for _ in range(300):
+            assert (await poster.recv()).type == "RECEIVE_ACCEPT"
+        module = TestModule("Reader", server.port)
+        await module.bind(listen=False)
+        await module.subscribe(registration)
+        builds.max_bytes = 400 * 1024  # room for one waiting wakeup
+        for n in range(3):
+            go = Message(type=f"Test.Go.{n}", to="WB1", sender="Poster", id=f"p{n}")
+            assert (await poster.request(go)).type == "RECEIVE_ACCEPT"
+        assert builds.written_at_once == 2 and 0 < builds.bytes <= builds.max_bytes
+        release.set()
+        await module.wait_for(3)
+        triggers = [parse_wakeup(w).trigger for w in module.wakeups()]
+        assert [t.id if t else None for t in triggers] == ["p0", "p1", "p2"]
+        assert threads[0].startswith("openair-large") and threads[1:] == ["MainThread"] * 2
+        await asyncio.wait_for(server.dispatcher.drained(), BOUND)
+        assert builds.bytes == 0
+        await poster.close()
+        await module.close()
+        await server.stop()
+
+    run(body)

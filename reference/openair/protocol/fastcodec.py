@@ -42,7 +42,6 @@ __all__ = [
     "fast_decode",
     "fast_encode",
     "fast_encode_str",
-    "message_with",
     "text_slot_xml",
     "time_xml",
 ]
@@ -105,11 +104,6 @@ _NETPROTOCOL, _BINARY = _AT["netprotocol"], _AT["binary"]
 _new_message = Message.trusted_row
 
 
-def message_with(**values: Any) -> Message:
-    """`Message.trusted` (the trusted constructor), under its earlier name."""
-    return Message.trusted(**values)
-
-
 def derived(msg: Message, **changes: Any) -> Message:
     """`Message.trusted_replace` (the trusted constructor), under its earlier name."""
     return msg.trusted_replace(**changes)
@@ -166,11 +160,9 @@ _WINDOW = 64 * 1024
 def _canonical_groups(text: str) -> tuple[Any, ...] | None:
     """Return the groups of `_CANONICAL.fullmatch(text)`, or None when it does not match.
 
-    A large document's content is not scanned by the expression: one match of a megabyte holds
-    the interpreter lock 2.7 ms on the worker, and the event loop waits that long for it
-    (issue #19). The envelope, up to the content's start tag, is matched with an empty content;
-    the content is checked for the characters `_TEXT` allows, at memory speed and in windows
-    between which the loop may take the lock. The answer is the expression's.
+    A large document's content is not scanned by the expression (a megabyte held the lock 2.7 ms
+    on the worker while the loop waited, issue #19): the envelope is matched with an empty
+    content, the content checked for `_TEXT`'s characters at memory speed, in windows.
     """
     if len(text) <= _LARGE or not text.endswith(_BODY_END):
         found = _CANONICAL.fullmatch(text)

@@ -40,6 +40,7 @@ class Delivery:
     build: Callable[[], tuple[Message, bytes | None]] | None = field(
         default=None, compare=False, repr=False
     )
+    build_bytes: int = field(default=0, compare=False, repr=False)  # its text, at least
 
 
 @dataclass(frozen=True, slots=True)

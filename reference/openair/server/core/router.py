@@ -474,11 +474,11 @@ class Router(ComponentCommands, StreamRouting, Registrations):
                 posted=posted,
                 copies=self._copies,
             )
-            build = None
+            build, size = None, 0
             if chunked:
                 wakeup = attach_wakeup(parts.write()[0], stored, retrieved, omitted)  # OA-WAKE-10
                 wire = None  # the spliced frame has no chunks: the sender writes it
-            elif self.defer_large_wakeups and parts.size > LARGE_WAKEUP:  # issue #19
+            elif self.defer_large_wakeups and (size := parts.size) > LARGE_WAKEUP:  # #19
                 wakeup, wire, build = parts.preview(), None, parts.build
             else:
                 wakeup, wire = parts.write()
@@ -493,6 +493,7 @@ class Router(ComponentCommands, StreamRouting, Registrations):
                     expires_ns=self._expiry(stored, base_ns),  # OA-DELIV-14
                     trigger=stored,
                     build=build,
+                    build_bytes=size,
                 )
             )
             self._module_counters(name).queued += 1

@@ -225,6 +225,7 @@ class LegacyServer(Server):
     """The reference server behind Psyclone's wire habits (see the module docstring)."""
 
     legacy: LegacyOptions
+    sends_frames = False  # every reply is re-encoded in the legacy form from its text
 
     def _protocol(self) -> ServerConnection:
         return LegacyConnection(self, Role.RESPONDER)

@@ -17,6 +17,7 @@ from openair.protocol.message import Message
 from openair.protocol.wakeup import parse_wakeup
 from openair.server.core import commands as cmd
 from openair.server.core.outcome import Delivery
+from openair.server.core.retrieve import _LARGE_SCAN
 from openair.server.core.wakeups import LARGE_WAKEUP
 
 RETRIEVING = (
@@ -97,3 +98,18 @@ def test_building_reads_the_cache_of_encoded_copies_and_never_writes_it(
     assert copies._xml == cached  # neither did building
     trigger = parse_wakeup(message).trigger
     assert isinstance(trigger, Message) and trigger.content == "z" * (LARGE_WAKEUP + 1)
+
+
+def test_a_large_retrieve_reply_is_handed_over_as_its_frame_only() -> None:
+    # The adapter sends the frame; the reply's text of megabytes is never joined (issue #19).
+    h = Harness()
+    h.router.defer_large_replies = h.router.frames_only = True
+    for i in range(_LARGE_SCAN + 10):
+        h.post(1, f"Test.Fill.{i}", content="x")
+    retrieve = '<retrieve type="Test.*"><latest>0</latest></retrieve>'
+    msg = Message(type="AIR.Retrieve", to="WB1", sender="R", content=retrieve, content_is_xml=True)
+    later = h.send(2, msg).later
+    assert later is not None
+    reply, parts = later()
+    assert reply.type == "AIR.Retrieve.Success" and reply.content == ""
+    assert parts is not None and b"Test.Fill.0<" in b"".join(parts)

@@ -179,7 +179,8 @@ def test_past_the_waiting_budget_a_wakeup_is_written_at_once_still_in_order(
         await module.wait_for(3)
         triggers = [parse_wakeup(w).trigger for w in module.wakeups()]
         assert [t.id if t else None for t in triggers] == ["p0", "p1", "p2"]
-        assert threads[0].startswith("openair-large") and threads[1:] == ["MainThread"] * 2
+        # The worker may start its build after the loop wrote the other two.
+        assert sorted(threads) == ["MainThread", "MainThread", "openair-large_0"]
         await asyncio.wait_for(server.dispatcher.drained(), BOUND)
         assert builds.bytes == 0
         await poster.close()

@@ -119,6 +119,10 @@ class MonitorHook(Protocol):
 class Server:
     """A running OpenAIR server; build it with `start_server`."""
 
+    #: Its connections write the frames the router made (a subclass that re-encodes every reply
+    #: says False: a large reply then carries its text too, issue #19).
+    sends_frames = True
+
     def __init__(self, options: ServerOptions, config: ServerConfig, store: HistoryStore) -> None:
         self.options = options
         self.config = config
@@ -449,6 +453,7 @@ class Server:
         self.router.status_extra = self._status_counters
         self.router.queued_bytes = self.dispatcher.queued_bytes  # OA-LIM-14
         self.router.defer_large_replies = True  # written on a worker thread (issue #19)
+        self.router.frames_only = self.sends_frames
         self.router.defer_large_wakeups = True  # so are large wakeups (Dispatcher.builds)
         self.router.defer_store_replies = True  # a cluster's acknowledgements (spec 17)
         if self.cluster is not None:

@@ -100,7 +100,7 @@ def off_loop_executor() -> ThreadPoolExecutor:
 
 #: Connections asyncio accepts in one loop turn at most (each costs some 60 µs to set up): the
 #: `backlog` the listener is created with.
-ACCEPT_BATCH = 16
+ACCEPT_BATCH = 8
 
 
 def full_backlog(listener: asyncio.Server, backlog: int) -> None:

@@ -26,7 +26,7 @@ from typing import Any
 __all__ = ["PER_PEER", "FairSelector", "fair_event_loop", "peer_of", "postponed_on"]
 
 #: Sockets of one peer address handed to the loop per poll when others are ready too.
-PER_PEER = 8
+PER_PEER = 4
 
 
 def peer_of(key: selectors.SelectorKey) -> str | None:

@@ -124,48 +124,55 @@ class PreparedRetrieve:
                 )
         return results
 
-    def build(self) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
+    def build(self, *, text: bool = True) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
         """Return the reply and its Message frame, as parts (None: the sender encodes it).
 
         The frame is written in parts of about 256 KiB, the collection's pieces encoded a group
         at a time: on a worker thread no single operation on megabytes holds the interpreter
         lock the event loop waits for (issue #19). Joined, the parts are the frame `to_frame`
-        and `encode_frame` make of the reply.
+        and `encode_frame` make of the reply. With `text=False` a reply that comes with its
+        frame carries an empty content: the frame is what is sent, and joining the collection
+        into one string of megabytes would hold the lock for milliseconds.
         """
         base = RETRIEVES if self.request.type == RETRIEVES else RETRIEVE
         try:
-            pieces, content, chunks = self._content()
+            pieces, chunks = self._content()
         except OpenAIRError as err:
             failed = error_reply(
                 self.request, err, sender=self.sender, now_ns=self.now_ns, type_=f"{base}.Failed"
             )
             return failed, None
-        answer = reply(
-            self.request,
-            f"{base}.Success",
-            sender=self.sender,
-            now_ns=self.now_ns,
-            content=content,
-            xml=True,
-        )
+
+        def answer(content: str) -> Message:
+            return reply(
+                self.request,
+                f"{base}.Success",
+                sender=self.sender,
+                now_ns=self.now_ns,
+                content=content,
+                xml=True,
+            )
+
         if chunks:
-            return dataclasses.replace(answer, binary=chunks), None
+            return dataclasses.replace(answer("".join(pieces)), binary=chunks), None
         # The collection is the canonical text lxml writes, so it is spliced in as it is: the
         # envelope is written around a placeholder no escaped slot can contain.
-        text = fast_encode_str(dataclasses.replace(answer, content=_SPLICE), xml_content=True)
-        if text is None:
-            return answer, None
-        head, _, tail = text.partition(_SPLICE)
+        spliced = answer(_SPLICE)
+        envelope = fast_encode_str(spliced, xml_content=True)
+        if envelope is None:
+            return answer("".join(pieces)), None
+        head, _, tail = envelope.partition(_SPLICE)
         parts = [head.encode("utf-8"), *encoded_groups(pieces), tail.encode("utf-8")]
-        return answer, (frame_header(sum(map(len, parts))), *parts)
+        wire = (frame_header(sum(map(len, parts))), *parts)
+        # The reply is the one written (its id): its content, checked above, put in place.
+        return spliced.trusted_replace(content="".join(pieces) if text else ""), wire
 
-    def _content(self) -> tuple[list[str], str, tuple[bytes, ...]]:
+    def _content(self) -> tuple[list[str], tuple[bytes, ...]]:
         if self.error is not None:
             raise self.error
         results = self.results()
         pieces = collection_parts(results)  # OA-RET-7: what encode_message_collection writes
-        content = "".join(pieces)
-        size = len(content) if content.isascii() else len(content.encode("utf-8"))
+        size = sum(len(p) if p.isascii() else len(p.encode("utf-8")) for p in pieces)
         if size + _ENVELOPE_ALLOWANCE > self.max_xml:  # OA-RET-15
             raise LimitExceededError(
                 f"{len(results)} results exceed max-frame-xml ({self.max_xml} bytes)"
@@ -176,7 +183,7 @@ class PreparedRetrieve:
                 f"the attachments of {len(results)} results exceed max-frame-binary"
                 f" ({self.max_binary} bytes); ask for fewer with latest"
             )
-        return pieces, content, chunks
+        return pieces, chunks
 
 
 def prepare_retrieve(

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import replace
+from functools import partial
 from typing import TYPE_CHECKING
 
 from openair.protocol.content import Phase, Registration
@@ -110,8 +111,10 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         #: Called with (whiteboard, stored message, its deliveries) after every stored post; the
         #: web monitor's tap. It must do O(1) work and never raise (routing waits for it).
         self.observer: Callable[[str, Message, tuple[Delivery, ...]], None] | None = None
-        # The adapter writes large replies on a worker thread (Outcome.later, issue #19).
+        # The adapter writes large replies on a worker thread (Outcome.later, issue #19), and
+        # sends a reply's frame, not its text (a large retrieve's text is then never joined).
         self.defer_large_replies = False
+        self.frames_only = False
         # The adapter waits for a cluster's store without blocking (Outcome.awaited, spec 17).
         self.defer_store_replies = False
         # The adapter writes large wakeups on a worker thread (Delivery.build, issue #19).
@@ -310,7 +313,8 @@ class Router(ComponentCommands, StreamRouting, Registrations):
                 before_read=synced,
             )
             if self.defer_large_replies and prepared.large:  # written off the loop (issue #19)
-                return Outcome(later=prepared.build, deliveries=caught_up)
+                build = partial(prepared.build, text=not self.frames_only)  # sent: the frame
+                return Outcome(later=build, deliveries=caught_up)
             answer = prepared.build()[0]
             return Outcome(replies=(answer,), deliveries=caught_up)
         if kind == "PING" or kind == "KEEPALIVE":

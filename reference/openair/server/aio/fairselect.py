@@ -65,6 +65,7 @@ class FairSelector(selectors.EpollSelector):
 
     def register(self, fileobj: Any, events: int, data: Any = None) -> selectors.SelectorKey:
         key = super().register(fileobj, events, data)
+        self._forget(key.fd)  # a socket whose failed `modify` unregistered it past us
         peer = peer_of(key)
         if peer is not None:
             self._peer_of_fd[key.fd] = peer
@@ -73,14 +74,17 @@ class FairSelector(selectors.EpollSelector):
 
     def unregister(self, fileobj: Any) -> selectors.SelectorKey:
         key = super().unregister(fileobj)
-        peer = self._peer_of_fd.pop(key.fd, None)
+        self._forget(key.fd)
+        return key
+
+    def _forget(self, fd: int) -> None:
+        peer = self._peer_of_fd.pop(fd, None)
         if peer is not None:
             left = self._sockets_of[peer] - 1
             if left:
                 self._sockets_of[peer] = left
             else:
                 del self._sockets_of[peer]
-        return key
 
     def select(self, timeout: float | None = None) -> list[tuple[selectors.SelectorKey, int]]:
         ready = super().select(timeout)

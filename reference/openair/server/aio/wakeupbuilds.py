@@ -52,7 +52,7 @@ class Builds:
 
     def __len__(self) -> int:
         """Deliveries waiting here (a build in progress and those behind it)."""
-        return sum(len(held) for held in self._behind.values())
+        return sum(map(len, self._behind.values())) if self._behind else 0
 
     def offer(self, delivery: Delivery) -> bool:
         """Take `delivery` when it must wait (a build, or behind one); False: queue it now."""

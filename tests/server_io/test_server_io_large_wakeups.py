@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import threading
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 
 import pytest
 from server_io_helpers import BOUND, Raw, TestModule, run, serving
@@ -23,25 +24,37 @@ from openair.server.core.wakeups import LARGE_WAKEUP, WakeupParts
 BIG = "b" * (LARGE_WAKEUP + 1)
 
 
+@dataclass
+class HeldWorker:
+    """Builds on the worker thread wait for `release`; `threads` names where each build ran."""
+
+    release: threading.Event = field(default_factory=threading.Event)
+    threads: list[str] = field(default_factory=list)
+
+
 @pytest.fixture
-def builders(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
-    """Record the thread of every deferred build."""
-    threads: list[str] = []
+def held(monkeypatch: pytest.MonkeyPatch) -> Iterator[HeldWorker]:
+    state = HeldWorker()
     original = WakeupParts.build
 
     def build(self: WakeupParts) -> tuple[Message, bytes | None]:
-        threads.append(threading.current_thread().name)
+        state.threads.append(threading.current_thread().name)
+        if threading.current_thread() is not threading.main_thread():
+            state.release.wait(BOUND)  # the worker is stuck (or just behind)
         return original(self)
 
     monkeypatch.setattr(WakeupParts, "build", build)
-    yield threads
+    yield state
+    state.release.set()
 
 
 def _post(n: int, content: str) -> Message:
     return Message(type=f"Test.Item.{n}", to="WB1", sender="Poster", content=content, id=f"p{n}")
 
 
-def test_large_wakeups_are_built_on_the_worker_and_arrive_in_order(builders: list[str]) -> None:
+def test_large_wakeups_are_built_on_the_worker_and_arrive_in_order(held: HeldWorker) -> None:
+    held.release.set()  # the worker is free
+
     async def body() -> None:
         server = await serving()
         module = TestModule("Reader", server.port)
@@ -57,8 +70,8 @@ def test_large_wakeups_are_built_on_the_worker_and_arrive_in_order(builders: lis
         triggers = [parse_wakeup(w).trigger for w in module.wakeups()]
         assert [t.id if t else None for t in triggers] == [f"p{n}" for n in range(len(contents))]
         assert [t.content if t else None for t in triggers] == contents
-        assert len(builders) == 4
-        assert all(name.startswith("openair-large") for name in builders), builders
+        assert len(held.threads) == 4
+        assert all(name.startswith("openair-large") for name in held.threads), held.threads
         await asyncio.wait_for(server.dispatcher.drained(), BOUND)
         assert server.dispatcher.pending == 0
         await poster.close()
@@ -68,18 +81,7 @@ def test_large_wakeups_are_built_on_the_worker_and_arrive_in_order(builders: lis
     run(body)
 
 
-def test_a_build_in_progress_when_the_module_leaves_is_forgotten(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    release = threading.Event()
-    original = WakeupParts.build
-
-    def slow_build(self: WakeupParts) -> tuple[Message, bytes | None]:
-        release.wait(BOUND)
-        return original(self)
-
-    monkeypatch.setattr(WakeupParts, "build", slow_build)
-
+def test_a_build_in_progress_when_the_module_leaves_is_forgotten(held: HeldWorker) -> None:
     async def body() -> None:
         server = await serving()
         module = TestModule("Leaver", server.port)
@@ -93,7 +95,7 @@ def test_a_build_in_progress_when_the_module_leaves_is_forgotten(
         while server.router.module("Leaver") is not None:
             await asyncio.sleep(0.01)
         await asyncio.wait_for(server.dispatcher.drained(), BOUND)
-        release.set()
+        held.release.set()
         await asyncio.sleep(0.05)  # the build finishes: nothing is queued for a gone module
         assert server.dispatcher.pending == 0
         assert "Leaver" not in server.dispatcher.modules
@@ -104,16 +106,7 @@ def test_a_build_in_progress_when_the_module_leaves_is_forgotten(
     run(body)
 
 
-def test_the_server_stops_with_a_build_that_never_ends(monkeypatch: pytest.MonkeyPatch) -> None:
-    release = threading.Event()
-    original = WakeupParts.build
-
-    def stuck_build(self: WakeupParts) -> tuple[Message, bytes | None]:
-        release.wait(BOUND)
-        return original(self)
-
-    monkeypatch.setattr(WakeupParts, "build", stuck_build)
-
+def test_the_server_stops_with_a_build_that_never_ends(held: HeldWorker) -> None:
     async def body() -> None:
         server = await serving(ServerOptions(grace_s=0.2))
         module = TestModule("Waiting", server.port)
@@ -127,7 +120,7 @@ def test_the_server_stops_with_a_build_that_never_ends(monkeypatch: pytest.Monke
         try:
             await asyncio.wait_for(server.stop(), BOUND)  # OA-SESS-24: the grace, then stop
         finally:
-            release.set()
+            held.release.set()
         assert server.dropped_total.get("DELIVERY_FAILED") == 2  # both counted, not lost silently
         assert server.dispatcher.pending == 0
         await module.close()
@@ -136,19 +129,8 @@ def test_the_server_stops_with_a_build_that_never_ends(monkeypatch: pytest.Monke
 
 
 def test_past_the_waiting_budget_a_wakeup_is_written_at_once_still_in_order(
-    monkeypatch: pytest.MonkeyPatch,
+    held: HeldWorker,
 ) -> None:
-    release = threading.Event()
-    threads: list[str] = []
-    original = WakeupParts.build
-
-    def build(self: WakeupParts) -> tuple[Message, bytes | None]:
-        threads.append(threading.current_thread().name)
-        if threading.current_thread() is not threading.main_thread():
-            release.wait(BOUND)  # the worker is behind
-        return original(self)
-
-    monkeypatch.setattr(WakeupParts, "build", build)
     # Small posts (decoded on the loop, not behind the stuck worker) waking with 300 KiB of
     # retrieved messages: large wakeups.
     registration = (
@@ -175,12 +157,12 @@ def test_past_the_waiting_budget_a_wakeup_is_written_at_once_still_in_order(
             go = Message(type=f"Test.Go.{n}", to="WB1", sender="Poster", id=f"p{n}")
             assert (await poster.request(go)).type == "RECEIVE_ACCEPT"
         assert builds.written_at_once == 2 and 0 < builds.bytes <= builds.max_bytes
-        release.set()
+        held.release.set()
         await module.wait_for(3)
         triggers = [parse_wakeup(w).trigger for w in module.wakeups()]
         assert [t.id if t else None for t in triggers] == ["p0", "p1", "p2"]
         # The worker may start its build after the loop wrote the other two.
-        assert sorted(threads) == ["MainThread", "MainThread", "openair-large_0"]
+        assert sorted(held.threads) == ["MainThread", "MainThread", "openair-large_0"]
         await asyncio.wait_for(server.dispatcher.drained(), BOUND)
         assert builds.bytes == 0
         await poster.close()

@@ -5,15 +5,15 @@ work happens before or after any read: the end of stream of 600 connections clos
 their transports closed and forgotten, are 600 callbacks of one turn (15 ms here) that no
 `data_received` sees, and a client from another address waits behind all of them.
 
-`FairSelector` is the event loop's selector with one change: when the sockets ready in one poll
-belong to more than one peer address, it hands the loop at most `per_peer` of each address's
-(the listening socket and the loop's own wake-up pipe always). The rest are still ready (epoll
+`FairSelector` is the event loop's selector with one change: while sockets of more than one peer
+address are registered, it hands the loop at most `per_peer` ready sockets of each address
+(and the listening socket and the loop's own wake-up pipe always). The rest are still ready (epoll
 is level-triggered), so they come back in the next poll, the next turn, and go first then: an
 address's sockets take their turns round robin, none starves behind others that stay ready.
 Nothing is lost or reordered on a connection — a socket's events are only postponed whole.
 While every open connection comes from one address there is no one to be fair to, and the poll
-is handed over as it is (a benchmark on one machine pays nothing). `openair serve` runs on it unless
-`--fair-slice-ms 0` turns fairness off.
+is handed over as it is (a benchmark on one machine pays nothing). `openair serve` runs on it
+unless `--fair-slice-ms 0` turns fairness off.
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ from typing import Any
 
 __all__ = ["PER_PEER", "FairSelector", "fair_event_loop", "peer_of", "postponed_on"]
 
-#: Sockets of one peer address handed to the loop per poll when others are ready too.
+#: Sockets of one peer address handed to the loop per poll while other addresses are connected
+#: (chosen on `make stress`: 16 and 8 let a flood's reads and closes make turns of 2-4 ms).
 PER_PEER = 4
 
 

@@ -39,10 +39,11 @@ LARGE_WAKEUP = 256 * 1024
 class TriggerXml:
     """The XML of one stored copy, written once for every wakeup it triggers (OA-WAKE-3)."""
 
-    __slots__ = ("_text", "stored")
+    __slots__ = ("_text", "size", "stored")
 
     def __init__(self, stored: Message) -> None:
         self.stored = stored
+        self.size = text_bytes(stored)  # a lower bound of its XML
         self._text: str | None = None
 
     def now(self, copies: EncodedCopies) -> str:
@@ -59,9 +60,12 @@ class TriggerXml:
         return self._text
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@dataclass(slots=True, kw_only=True)  # not frozen: built per delivery, frozen costs 2x
 class WakeupParts:
-    """Everything decided about one wakeup; `write`/`build` turn it into text and a frame."""
+    """Everything decided about one wakeup; `write`/`build` turn it into text and a frame.
+
+    Never changed once made (a build may read it on another thread).
+    """
 
     trigger: TriggerXml
     retrieved: Sequence[Message]
@@ -75,7 +79,8 @@ class WakeupParts:
     @property
     def size(self) -> int:
         """A lower bound of the wakeup's text: its trigger's and retrieved messages' slots."""
-        return text_bytes(self.trigger.stored) + sum(text_bytes(m) for m in self.retrieved)
+        retrieved = self.retrieved
+        return self.trigger.size + (sum(map(text_bytes, retrieved)) if retrieved else 0)
 
     def write(self) -> tuple[Message, bytes | None]:
         """Write the wakeup on the router's thread (filling the router's cache)."""

@@ -360,12 +360,14 @@ def select(
     limit = min(latest, limit) if latest and limit else latest or limit
     size = 0
     found: list[Message] = []
+    timed = lower_us is not None or upper_us is not None
     for msg in reversed(messages):
-        received_us = msg.received.us if msg.received is not None else 0
-        if lower_us is not None and received_us < lower_us:
-            break  # receivedTime falls with wbid (OA-WB-12): nothing older can qualify
-        if upper_us is not None and received_us > upper_us:
-            continue  # OA-RET-9: untilTime is an inclusive upper bound
+        if timed:  # (most retrieves name no time: a wakeup's scan of thousands skips this)
+            received_us = msg.received.us if msg.received is not None else 0
+            if lower_us is not None and received_us < lower_us:
+                break  # receivedTime falls with wbid (OA-WB-12): nothing older can qualify
+            if upper_us is not None and received_us > upper_us:
+                continue  # OA-RET-9: untilTime is an inclusive upper bound
         if accept(msg):
             found.append(msg)
             if len(found) == limit:

@@ -81,7 +81,7 @@ def test_large_canonical_documents_give_the_expressions_groups(
     )
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(fastcodec, "_LARGE", 0)  # every document takes the large path
-        patch.setattr(fastcodec, "_WINDOW", window)
+        patch.setattr(grammar, "_WINDOW", window)
         found = fastcodec._CANONICAL.fullmatch(text)
         assert fastcodec._canonical_groups(text) == (None if found is None else found.groups())
 

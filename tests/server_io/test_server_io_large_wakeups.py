@@ -14,7 +14,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import pytest
-from server_io_helpers import BOUND, Raw, TestModule, run, serving
+from server_io_helpers import BOUND, TRIGGERS, Raw, TestModule, run, serving
 
 from openair.protocol.message import Message
 from openair.protocol.wakeup import parse_wakeup
@@ -48,6 +48,14 @@ def held(monkeypatch: pytest.MonkeyPatch) -> Iterator[HeldWorker]:
     state.release.set()
 
 
+async def _subscribed(port: int, name: str, registration: str = TRIGGERS) -> TestModule:
+    """A module bound without a port (a callback connection), subscribed to `registration`."""
+    module = TestModule(name, port)
+    await module.bind(listen=False)
+    await module.subscribe(registration)
+    return module
+
+
 def _post(n: int, content: str) -> Message:
     return Message(type=f"Test.Item.{n}", to="WB1", sender="Poster", content=content, id=f"p{n}")
 
@@ -57,9 +65,7 @@ def test_large_wakeups_are_built_on_the_worker_and_arrive_in_order(held: HeldWor
 
     async def body() -> None:
         server = await serving()
-        module = TestModule("Reader", server.port)
-        await module.bind(listen=False)
-        await module.subscribe()
+        module = await _subscribed(server.port, "Reader")
         poster = await Raw.open(server.port)
         contents = [BIG, "s", "s", BIG, "s", BIG, BIG, "s"]
         for n, content in enumerate(contents):
@@ -84,9 +90,7 @@ def test_large_wakeups_are_built_on_the_worker_and_arrive_in_order(held: HeldWor
 def test_a_build_in_progress_when_the_module_leaves_is_forgotten(held: HeldWorker) -> None:
     async def body() -> None:
         server = await serving()
-        module = TestModule("Leaver", server.port)
-        await module.bind(listen=False)
-        await module.subscribe()
+        module = await _subscribed(server.port, "Leaver")
         poster = await Raw.open(server.port)
         assert (await poster.request(_post(0, BIG))).type == "RECEIVE_ACCEPT"
         assert (await poster.request(_post(1, "s"))).type == "RECEIVE_ACCEPT"
@@ -109,9 +113,7 @@ def test_a_build_in_progress_when_the_module_leaves_is_forgotten(held: HeldWorke
 def test_the_server_stops_with_a_build_that_never_ends(held: HeldWorker) -> None:
     async def body() -> None:
         server = await serving(ServerOptions(grace_s=0.2))
-        module = TestModule("Waiting", server.port)
-        await module.bind(listen=False)
-        await module.subscribe()
+        module = await _subscribed(server.port, "Waiting")
         poster = await Raw.open(server.port)
         assert (await poster.request(_post(0, BIG))).type == "RECEIVE_ACCEPT"
         assert (await poster.request(_post(1, "s"))).type == "RECEIVE_ACCEPT"
@@ -149,9 +151,7 @@ def test_past_the_waiting_budget_a_wakeup_is_written_at_once_still_in_order(
             )
         for _ in range(300):
             assert (await poster.recv()).type == "RECEIVE_ACCEPT"
-        module = TestModule("Reader", server.port)
-        await module.bind(listen=False)
-        await module.subscribe(registration)
+        module = await _subscribed(server.port, "Reader", registration)
         builds.max_bytes = 400 * 1024  # room for one waiting wakeup
         for n in range(3):
             go = Message(type=f"Test.Go.{n}", to="WB1", sender="Poster", id=f"p{n}")

@@ -154,7 +154,6 @@ _BODY_END = "</content></message>"
 #: The ASCII characters `_TEXT` allows: tab, newline, 0x20 on, but not `<`.
 _TEXT_ASCII = bytes([9, 10, *(c for c in range(0x20, 0x80) if c != 0x3C)])
 _NOT_TEXT = re.compile("[" + _TEXT[2:])  # a character `_TEXT` does not allow
-_WINDOW = 64 * 1024
 
 
 def _canonical_groups(text: str) -> tuple[Any, ...] | None:
@@ -183,14 +182,8 @@ def _canonical_groups(text: str) -> tuple[Any, ...] | None:
 
 
 def _plain_text(body: str) -> bool:
-    """Whether `_TEXT*` matches the whole of `body`, in windows of `_WINDOW` characters."""
-    step = _WINDOW
-    if body.isascii():
-        return not any(
-            body[i : i + step].encode("ascii").translate(None, _TEXT_ASCII)
-            for i in range(0, len(body), step)
-        )
-    return all(_NOT_TEXT.search(body, i, i + step) is None for i in range(0, len(body), step))
+    """Whether `_TEXT*` matches the whole of `body` (read in windows, `grammar`)."""
+    return not grammar.has_char_outside(body, _TEXT_ASCII, _NOT_TEXT)
 
 
 def _canonical(g: tuple[Any, ...], amp: bool, chunks: tuple[bytes, ...], clamp: bool) -> Message:
@@ -528,10 +521,14 @@ def _encodable(msg: Message, xml_content: bool) -> bool:
     ref = msg.inreplyto
     if ref is not None:
         texts += (ref.id, ref.type, ref.sender, ref.to, ref.cc, ref.stored)
-    if grammar.has_non_xml_char("".join(texts)):  # OA-MSG-14: lxml raises
+    content = "" if msg.content_is_xml else msg.content
+    if len(content) <= _LARGE:  # one check for all; a large content apart (one copy less)
+        texts.append(content)
+        content = ""
+    # OA-MSG-14: lxml raises
+    if grammar.has_non_xml_char("".join(texts)):
         return False
-    # The content apart: joined with the rest, a megabyte would be copied once more.
-    return msg.content_is_xml or not grammar.has_non_xml_char(msg.content)
+    return not content or not grammar.has_non_xml_char(content)
 
 
 def fast_encode_str(msg: Message, *, xml_content: bool = False) -> str | None:

@@ -158,10 +158,6 @@ class EncodedCopies:
         hit = self._xml.get(id(msg))
         return hit[1] if hit is not None and hit[0] is msg else None
 
-    def reader(self) -> PeekedCopies:
-        """Return a view of this cache that encodes what it misses and never writes."""
-        return PeekedCopies(self)
-
     def xml(self, msg: Message) -> str:
         """Return `stored_xml(msg)`, encoding it only once while it stays in the cache."""
         hit = self._xml.get(id(msg))

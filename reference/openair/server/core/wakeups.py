@@ -25,7 +25,6 @@ from openair.protocol.wakeup import (
     PeekedCopies,
     assemble_wakeup,
     collection_xml,
-    stored_xml,
 )
 from openair.server.core.whiteboard import text_bytes
 
@@ -55,8 +54,7 @@ class TriggerXml:
     def later(self, copies: EncodedCopies) -> str:
         """On a worker: from the cache when it holds it, else written here and remembered."""
         if self._text is None:
-            hit = copies.peek(self.stored)
-            self._text = hit if hit is not None else stored_xml(self.stored)
+            self._text = PeekedCopies(copies).xml(self.stored)
         return self._text
 
 

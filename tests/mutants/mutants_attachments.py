@@ -16,7 +16,7 @@ from mutants_core import Fn, mutant, wrap
 from openair.protocol import registration
 from openair.protocol.message import Message
 from openair.server.aio import delivery
-from openair.server.core import retrieve, router, streams, whiteboard
+from openair.server.core import retrieve, router, router_routes, streams, whiteboard
 from openair.server.core.queues import QueueItem
 
 
@@ -26,7 +26,7 @@ from openair.server.core.queues import QueueItem
     "OA-WAKE-10",
 )
 def _wakeup_without_attachments(mp: pytest.MonkeyPatch) -> None:
-    mp.setattr(router, "attach_wakeup", lambda wakeup, *rest: wakeup)
+    mp.setattr(router_routes, "attach_wakeup", lambda wakeup, *rest: wakeup)
 
 
 @mutant(
@@ -90,7 +90,7 @@ def _ttl_uncounted(mp: pytest.MonkeyPatch) -> None:
 
 @mutant("alarm-trigger-ignored", "maxpriority is read but every priority fires", "OA-TRIG-5")
 def _alarm_trigger_ignored(mp: pytest.MonkeyPatch) -> None:
-    mp.setattr(router, "urgent_enough", lambda triggers, i, stored: True)
+    mp.setattr(router_routes, "urgent_enough", lambda triggers, i, stored: True)
 
 
 @mutant("bare-streams-refused", "stream elements outside <module> are refused", "OA-REG-16")
@@ -116,4 +116,4 @@ def _payload_search_ignored(mp: pytest.MonkeyPatch) -> None:
     cases=("ATT-005",),
 )
 def _wakeup_attachments_unbounded(mp: pytest.MonkeyPatch) -> None:
-    mp.setattr(router, "fit_attachments", lambda stored, retrieved, limit: (retrieved, 0))
+    mp.setattr(router_routes, "fit_attachments", lambda stored, retrieved, limit: (retrieved, 0))

@@ -15,7 +15,7 @@ import pytest
 from mutants_core import Fn, mutant, wrap
 
 from openair.protocol import registration
-from openair.server.core import router
+from openair.server.core import router_routes
 from openair.server.core.queues import DeliveryQueue
 from openair.server.core.whiteboard import Whiteboard
 
@@ -66,7 +66,7 @@ def _results(change: Any) -> Any:
     """Patch the wakeup retrieves the router evaluates (OA-WAKE-7) with `change(original)`."""
 
     def patch(mp: pytest.MonkeyPatch) -> None:
-        wrap(mp, router, "registration_results", change)
+        wrap(mp, router_routes, "registration_results", change)
 
     return patch
 

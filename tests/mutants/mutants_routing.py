@@ -32,7 +32,7 @@ from openair.protocol.content import Phase, Registration, RegistrationForm
 from openair.protocol.errors import MessageInvalidError
 from openair.protocol.message import Message, new_id
 from openair.protocol.xmlsafe import local_name
-from openair.server.core import commands, router, router_registrations
+from openair.server.core import commands, router_registrations, router_routes
 from openair.server.core.contexts import Contexts
 from openair.server.core.router import Delivery, Outcome, Router
 from openair.server.core.whiteboard import Whiteboard
@@ -119,7 +119,7 @@ def _after_ignored(mp: pytest.MonkeyPatch) -> None:
 
 @mutant("trigger-from-case-sensitive", "a trigger's from compares case-sensitively", "OA-TRIG-2")
 def _trigger_from_case(mp: pytest.MonkeyPatch) -> None:
-    mp.setattr(router, "ascii_fold", lambda text: text)
+    mp.setattr(router_routes, "ascii_fold", lambda text: text)
     mp.setattr(router_registrations, "ascii_fold", lambda text: text)
 
 

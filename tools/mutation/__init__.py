@@ -20,6 +20,7 @@ MODULE_GROUPS: dict[str, tuple[str, ...]] = {
         _CORE + "router.py",
         _CORE + "router_commands.py",
         _CORE + "router_registrations.py",
+        _CORE + "router_routes.py",
         _CORE + "router_state.py",
         _CORE + "router_streams.py",
     ),

@@ -23,14 +23,12 @@ import logging
 import time
 from collections.abc import Callable, Coroutine
 from dataclasses import replace
-from importlib.metadata import entry_points
-from typing import Protocol
 
 import openair
-from openair.extras import install_hint, missing_extra
 from openair.observing import ServerObserver
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
+from openair.server.aio.attachments import MonitorHook, load_attachment
 from openair.server.aio.budgets import ACCEPT_BATCH, full_backlog, quiet_accept_errors
 from openair.server.aio.clusternode import ClusterNode, join_cluster
 from openair.server.aio.dispatcher import Dispatcher
@@ -75,47 +73,6 @@ _STAGE_S = 2.0  # the longest one shutdown stage after the grace period may take
 _STORE_WAIT_S = 20.0  # an injected post to a cluster whiteboard: its store's answer (spec 17)
 
 
-#: The entry point group of the applications a server attaches when it starts (pyproject.toml:
-#: `monitor`, the web monitor). The server never imports them: they attach through `observe`.
-ATTACHMENTS = "openair.server.attachments"
-
-
-#: An installed application's entry point: called once with the started server.
-Attach = Callable[[ObservedView], Coroutine[object, object, "MonitorHook"]]
-
-
-def _attachment(name: str) -> Attach | None:
-    """Load the installed application `name`; None when none is installed or its extra is
-    missing (then the server runs without it and says which extra to install)."""
-    for entry in entry_points(group=ATTACHMENTS, name=name):
-        try:
-            attach: Attach = entry.load()
-        except ModuleNotFoundError as exc:
-            extra = missing_extra(exc)
-            if extra is None:
-                raise
-            log.warning(
-                "event=attachment_unavailable name=%s missing=%s install=%s",
-                name,
-                exc.name,
-                install_hint(extra),
-            )
-            return None
-        return attach
-    log.warning("event=attachment_missing name=%s group=%s", name, ATTACHMENTS)
-    return None
-
-
-class MonitorHook(Protocol):
-    """What the server needs from an attached web monitor (openair_monitor)."""
-
-    def adopt(self, transport: asyncio.Transport, data: bytes) -> None:
-        """Serve HTTP on a main-port connection whose first bytes were `data`."""
-
-    async def close(self) -> None:
-        """Close the monitor's own listener and its open HTTP connections."""
-
-
 class Server:
     """A running OpenAIR server; build it with `start_server`."""
 
@@ -136,7 +93,7 @@ class Server:
             wanted = (wanted - {"monitor"}) | {"auth"}
         # OA-EXT-1: `monitor` only with a web monitor installed (the `monitor` extra, issue #17)
         monitor = options.monitor and "monitor" in wanted
-        self._attach_monitor = _attachment("monitor") if monitor else None
+        self._attach_monitor = load_attachment("monitor") if monitor else None
         if monitor and self._attach_monitor is None:
             wanted = wanted - {"monitor"}
         self.extensions = advertised_extensions(wanted, store)

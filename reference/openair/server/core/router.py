@@ -7,18 +7,18 @@ OA-TIME-3) and `now_ns` (for replies' postedTime). Every component lives on the 
 is addressed by `to` (OA-SESS-9, OA-SESS-26).
 
 The post path is lean: one dict lookup to find the whiteboard, one cached type check, one store
-append, one `PatternIndex.match` over the triggers of every registration, and a wakeup per
-woken module (OA-WAKE-5).
+append, the route cache's answer (`router_routes`: a `PatternIndex.match` over the triggers of
+every registration when it misses), and a wakeup per woken module (OA-WAKE-5).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
 from functools import partial
 from typing import TYPE_CHECKING
 
-from openair.protocol.content import Phase, Registration
+from openair.protocol.content import Registration
 from openair.protocol.errors import (
     LimitExceededError,
     OpenAIRError,
@@ -27,11 +27,11 @@ from openair.protocol.errors import (
     TypeInvalidError,
 )
 from openair.protocol.framing import FrameTag
-from openair.protocol.matching import PatternIndex, ascii_fold
+from openair.protocol.matching import PatternIndex
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
 from openair.protocol.types import validate_type
-from openair.protocol.wakeup import EncodedCopies, attach_wakeup, fit_attachments, phase_spec_xml
+from openair.protocol.wakeup import EncodedCopies
 from openair.server.core import commands as cmd
 from openair.server.core.auth import AuthGate
 from openair.server.core.config import (
@@ -43,10 +43,11 @@ from openair.server.core.config import (
 from openair.server.core.contexts import PHASE_CHANGE, Contexts
 from openair.server.core.outcome import AwaitedReply, Delivery, Outcome
 from openair.server.core.queues import item_bytes
-from openair.server.core.retrieve import RETRIEVE, RETRIEVES, prepare_retrieve, registration_results
+from openair.server.core.retrieve import RETRIEVE, RETRIEVES, prepare_retrieve
 from openair.server.core.router_commands import ComponentCommands
 from openair.server.core.router_registrations import Registrations
-from openair.server.core.router_state import IndexedTriggers, ModuleCounters, urgent_enough
+from openair.server.core.router_routes import Routes
+from openair.server.core.router_state import IndexedTriggers, ModuleCounters
 from openair.server.core.router_streams import StreamRouting, stream_specs
 from openair.server.core.sessions import ConnId, ModuleInfo, Sessions
 from openair.server.core.store import HistoryStore
@@ -57,7 +58,6 @@ from openair.server.core.streamservice import (
     WaitReply,
     is_media_command,
 )
-from openair.server.core.wakeups import LARGE_WAKEUP, TriggerXml, WakeupParts
 from openair.server.core.whiteboard import Whiteboard
 
 __all__ = [
@@ -71,21 +71,19 @@ __all__ = [
     "WaitReply",
 ]
 
-_NS_PER_MS = 1_000_000
 _TYPE_CACHE_SIZE = 4096
-_PHASE_CACHE_SIZE = 256  # PhaseSpec texts kept per registration (one per lasttrigger)
 _SYSTEM = "Psyclone"  # the sender of lifecycle notices (OA-SESS-15, OA-SESS-31)
 
 if TYPE_CHECKING:
     import concurrent.futures
 
 
-class Router(ComponentCommands, StreamRouting, Registrations):
+class Router(ComponentCommands, StreamRouting, Registrations, Routes):
     """The whole server behind the sockets (spec sections 6–10, 15).
 
-    Assembled from parts (`router_state` says how): the component commands, stream requests
-    and registrations live in `router_commands`, `router_streams` and `router_registrations`;
-    here are the dispatch, the posts and the wakeups they decide.
+    Assembled from parts (`router_state` says how): the component commands, stream requests,
+    registrations and wakeups live in `router_commands`, `router_streams`,
+    `router_registrations` and `router_routes`; here are the dispatch and the posts.
     """
 
     def __init__(
@@ -150,6 +148,8 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         self._subscribed: dict[str, Registration] = {}  # AIR.Subscribe wins over the config
         self._index: PatternIndex[tuple[str, int]] = PatternIndex()
         self._triggers: dict[str, IndexedTriggers] = {}
+        self._index_changes = 0  # the route cache's key (router_routes)
+        self._routes, self._routes_at = {}, (-1, -1)
         self._valid_types: set[str] = set()
         self._counters: dict[str, ModuleCounters] = {}
         self._gone: dict[str, int] = {}  # unbound names with counters -> when they were seen gone
@@ -433,126 +433,6 @@ class Router(ComponentCommands, StreamRouting, Registrations):
         validate_type(type_, max_bytes=limits.max_type_bytes, max_segments=limits.max_type_segments)
         if len(self._valid_types) < _TYPE_CACHE_SIZE:
             self._valid_types.add(type_)
-
-    def _decide(self, board: Whiteboard, stored: Message, now_ns: int) -> tuple[Delivery, ...]:
-        """Decide the wakeups of a stored message (spec 8.6) against the registrations now."""
-        chosen = self._woken(board, stored)
-        if not chosen:
-            return ()
-        base_ns = board.last_received_ns  # the receivedTime stamped on `stored`
-        posted = cmd.ms_time(now_ns)
-        trigger = TriggerXml(stored)  # the stored copy is written once per post
-        attached, limits = bool(stored.binary), self.limits  # OA-WB-13: its attachments
-        deliveries: list[Delivery] = []
-        for name in sorted(chosen) if len(chosen) > 1 else chosen:
-            after, pattern = chosen[name]
-            reg = self.registration(name)
-            triggers = self._triggers.get(name)
-            if triggers is not None and triggers.registration is reg:
-                phase = triggers.phase
-            else:
-                phase = self._phase_in_force(name, reg)
-            retrieved: Sequence[Message] = (
-                registration_results(
-                    phase.retrieves,
-                    board,
-                    self._whiteboards,
-                    now_ns=now_ns,
-                    max_count=limits.max_wakeup_results,  # OA-LIM-9
-                    max_bytes=limits.max_wakeup_result_bytes,
-                )
-                if phase is not None and phase.retrieves
-                else ()
-            )  # OA-WAKE-7
-            omitted, chunked = 0, attached or any(m.binary for m in retrieved)
-            if chunked:  # OA-WAKE-11: leave retrieved messages out until the chunks fit
-                retrieved, omitted = fit_attachments(stored, retrieved, limits.max_frame_binary)
-            parts = WakeupParts(
-                trigger=trigger,
-                retrieved=retrieved,
-                # OA-WAKE-4: an empty phase without a registration
-                phase_xml=self._phase_xml(name, reg, phase, pattern),
-                whiteboard=board.name,
-                module=name,
-                id=cmd.fresh_id(),
-                posted=posted,
-                copies=self._copies,
-            )
-            build, size = None, 0
-            if chunked:
-                wakeup = attach_wakeup(parts.write()[0], stored, retrieved, omitted)  # OA-WAKE-10
-                wire = None  # the spliced frame has no chunks: the sender writes it
-            elif self.defer_large_wakeups and (size := parts.size) > LARGE_WAKEUP:  # #19
-                wakeup, wire, build = parts.preview(), None, parts.build
-            else:
-                wakeup, wire = parts.write()
-            deliveries.append(
-                Delivery(
-                    module=name,
-                    message=wakeup,
-                    due_ns=base_ns + after * _NS_PER_MS,  # OA-TRIG-3
-                    priority=stored.effective_priority,  # OA-PRIO-1
-                    wb_priority=board.priority,  # OA-PRIO-2
-                    wire=wire,
-                    expires_ns=self._expiry(stored, base_ns),  # OA-DELIV-14
-                    trigger=stored,
-                    build=build,
-                    build_bytes=size,
-                )
-            )
-            self._module_counters(name).queued += 1
-        board.dispatched += len(deliveries)
-        return tuple(deliveries)
-
-    def _expiry(self, msg: Message, received_ns: int) -> int:
-        """Return when a delivery of `msg` expires under `qos` (OA-DELIV-14); 0 means never."""
-        ttl = msg.timetolive
-        if not self._qos or ttl is None or not ttl > 0:
-            return 0
-        return received_ns + round(ttl * _NS_PER_MS)
-
-    def _phase_xml(
-        self, name: str, reg: Registration | None, phase: Phase | None, lasttrigger: str
-    ) -> str:
-        """Return the PhaseSpec of a wakeup, cached per registration in force and lasttrigger."""
-        triggers = self._triggers.get(name)
-        if triggers is None or triggers.registration is not reg:
-            return phase_spec_xml(phase, module=name, lasttrigger=lasttrigger)
-        xml = triggers.phase_xml.get(lasttrigger)
-        if xml is None:
-            xml = phase_spec_xml(phase, module=name, lasttrigger=lasttrigger)
-            if len(triggers.phase_xml) < _PHASE_CACHE_SIZE:
-                triggers.phase_xml[lasttrigger] = xml
-        return xml
-
-    def _woken(self, board: Whiteboard, stored: Message) -> dict[str, tuple[int, str]]:
-        """Return each bound module to wake with (after ms, lasttrigger) (OA-WAKE-5/6)."""
-        modules = self._modules
-        folded_board = ascii_fold(board.name)
-        sender = stored.sender
-        best: dict[str, tuple[int, int]] = {}
-        for name, i in self._index.match(stored.type):  # OA-WB-7: registrations current now
-            if name not in modules:
-                continue  # only a bound module can receive a delivery
-            triggers = self._triggers[name]
-            _, whiteboard, after = triggers.entries[i]
-            if whiteboard and whiteboard != folded_board:
-                continue  # OA-TRIG-2: case-insensitive; "" is any whiteboard
-            if sender == name and not triggers.allow_self:
-                continue  # OA-TRIG-4, OA-REG-6
-            if self._qos and not urgent_enough(triggers, i, stored):
-                continue  # OA-TRIG-5: an alarm trigger wants time-critical messages only
-            current = best.get(name)
-            if current is None or (after, i) < current:
-                best[name] = (after, i)  # OA-WAKE-6: smallest after, first on a tie
-        chosen = {
-            name: (after, self._triggers[name].entries[i][0]) for name, (after, i) in best.items()
-        }
-        if stored.cc:
-            for name in stored.cc_names:  # OA-CC-1
-                if name in modules and name not in chosen:
-                    chosen[name] = (0, "")  # OA-CC-2, OA-CC-4; OA-CC-3: others skipped
-        return chosen
 
     def _notice(self, type_: str, now_ns: int) -> tuple[Delivery, ...]:
         """Post a lifecycle notice from Psyclone to AIRCentral (OA-SESS-6/15/31)."""

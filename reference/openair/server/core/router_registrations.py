@@ -97,6 +97,7 @@ class Registrations(RouterState):
     def _reindex(self, name: str) -> None:
         """Put the triggers of `name`'s registration in force into the index (OA-REG-1)."""
         old = self._triggers.pop(name, None)
+        self._index_changes += 1  # the route cache starts again (router_routes)
         if old is not None:
             for i, (pattern, _, _) in enumerate(old.entries):
                 self._index.remove(pattern, (name, i))

@@ -84,6 +84,7 @@ class RouterState:
         _subscribed: dict[str, Registration]
         _index: PatternIndex[tuple[str, int]]
         _triggers: dict[str, IndexedTriggers]
+        _index_changes: int
         _valid_types: set[str]
         _counters: dict[str, ModuleCounters]
         _gone: dict[str, int]

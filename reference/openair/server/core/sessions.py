@@ -57,6 +57,7 @@ class Sessions:
         port_allocator: Callable[[int], int] | None = None,
     ) -> None:
         self.modules: dict[str, ModuleInfo] = {}
+        self.generation = 0  # changes whenever a name is bound or unbound (the route cache)
         self._reserved = reserved  # whiteboard, stream and component names (OA-SESS-30)
         self._allocate = port_allocator
         self._next_port = FIRST_MODULE_PORT
@@ -101,6 +102,7 @@ class Sessions:
         callback = old.callback if old is not None and old.conn == conn else None
         if callback is None:
             callback = self._pending.pop(name, None)
+        self.generation += 1
         self.modules[name] = ModuleInfo(
             name=name,
             conn=conn,
@@ -149,6 +151,7 @@ class Sessions:
         close: list[ConnId] = []
         for name in names:
             info = self.modules.pop(name)
+            self.generation += 1
             if info.callback is not None:
                 self._callbacks.pop(info.callback, None)
                 close.append(info.callback)

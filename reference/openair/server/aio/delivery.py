@@ -57,6 +57,7 @@ class ModuleCounters:
     refused: int = 0  # answered with something other than the acknowledgement
     retried: int = 0
     expired: int = 0  # OA-DELIV-14: dropped unsent after the message's timetolive
+    direct: int = 0  # sent by `send_now`, without the queue (issue #20)
 
 
 @dataclass(slots=True, eq=False)
@@ -81,6 +82,9 @@ class _Attempt:
 
 class ModuleDelivery:
     """The queue and delivery task of one module."""
+
+    #: Whether `send_now` may send past the queue (a subclass with its own task says no).
+    direct = True
 
     def __init__(self, name: str, dispatcher: Dispatcher) -> None:
         self.name = name
@@ -107,6 +111,7 @@ class ModuleDelivery:
         self._outbound_at = ("", 0)
         self._sending = 0  # 1 while an attempt is between the queue and the connection
         self._grant = 0  # deliveries this module may still start in its turn (OA-PRIO-5)
+        self._parked = False  # the task waits in `_next` with nothing to send (`send_now`)
         # Samples of the streams the module subscribed to (OA-STREAM-14): one bounded buffer per
         # stream (OA-STREAM-8); they go before queued messages ("streams outrank messages").
         self.samples: dict[str, SampleBuffer] = {}
@@ -129,9 +134,60 @@ class ModuleDelivery:
             due_ns=delivery.due_ns,
             wire=delivery.wire,
             expires_ns=delivery.expires_ns,
+            now_ns=time.time_ns(),
         )
         self._wake.set()
         return victims
+
+    def send_now(self, delivery: Delivery) -> bool:
+        """Send a delivery at once, without the queue and a task switch (issue #20).
+
+        Only what the task would send first, in this same loop turn, were it queued: the task
+        waits with nothing eligible queued (delayed items may wait: this one is due), no retry,
+        no stream sample and no large wakeup being written; the delivery is due and not
+        expired (OA-TRIG-3, OA-DELIV-14), its frame is written, the window has room
+        (OA-DELIV-5), the callback connection is open and nothing is unanswered on another path
+        (OA-DELIV-1, OA-DELIV-12), and no module waits for a turn (OA-PRIO-5: with work waiting,
+        whiteboard priority decides, so it queues). False: queue it as before. Counted as
+        pushed and popped, as the queue would have.
+        """
+        if (
+            not self.direct
+            or not self._parked
+            or self._wake.is_set()
+            or self._retry
+            or self.samples
+            or delivery.wire is None
+            or delivery.build is not None
+            or self._d.gate.waiting
+        ):
+            return False
+        now = time.time_ns()
+        if delivery.due_ns > now or (delivery.expires_ns and now >= delivery.expires_ns):
+            return False
+        if len(self._in_flight) >= self._window():
+            return False
+        conn = self._callback_path()
+        if conn is None or self._busy_elsewhere(conn):
+            return False
+        item = QueueItem(
+            message=delivery.message,
+            priority=delivery.priority,
+            wb_priority=delivery.wb_priority,
+            due_ns=delivery.due_ns,
+            seq=self.queue.passed(),
+            wire=delivery.wire,
+            expires_ns=delivery.expires_ns,
+        )
+        self.counters.direct += 1
+        sent = self._wire_form(item.message)
+        self._watch(
+            _Attempt(seq=item.seq, item=item),
+            conn,
+            sent,
+            item.wire if sent is item.message else None,
+        )
+        return True
 
     def poke(self) -> None:
         """Look again for a path (the module bound or opened a callback connection)."""
@@ -362,8 +418,15 @@ class ModuleDelivery:
         return None
 
     async def _next(self) -> _Attempt:
-        """Wait for the next attempt: a retry first, else the first eligible queued item."""
+        """Wait for the next attempt: a retry first, else the first eligible queued item.
+
+        Nothing is taken while the window is full (a delivery sent by `send_now` fills it): an
+        item taken would wait outside the queue, where no overflow can drop it (OA-DELIV-9).
+        """
         while True:
+            if len(self._in_flight) >= self._window():
+                self._flush()
+                await self._wait_for_room()
             self._wake.clear()
             attempt = self._take()
             if attempt is not None:
@@ -373,9 +436,13 @@ class ModuleDelivery:
             # asyncio.timeout, not wait_for: on 3.11 wait_for returns the wait's result when a
             # cancel arrives in the same turn as the wake-up, and the task (cancelled by stop())
             # would then wait here again for ever, holding the shutdown.
-            with contextlib.suppress(TimeoutError):
-                async with asyncio.timeout(timeout):
-                    await self._wake.wait()
+            self._parked = True
+            try:
+                with contextlib.suppress(TimeoutError):
+                    async with asyncio.timeout(timeout):
+                        await self._wake.wait()
+            finally:
+                self._parked = False
 
     def _has_path(self) -> bool:
         """Whether the module can be reached at all (else its deliveries wait, bounded)."""

@@ -88,9 +88,13 @@ class Dispatcher:
         """Queue a delivery for its module, dropping per OA-DELIV-9 when the queue is full.
 
         A large wakeup is written on the worker first, and the module's later deliveries wait
-        behind it (`wakeupbuilds.Builds`, issue #19).
+        behind it (`wakeupbuilds.Builds`, issue #19). One the module's task would send at once
+        goes out without the queue (`ModuleDelivery.send_now`, issue #20).
         """
-        if not self.builds.offer(delivery):
+        if self.builds.offer(delivery):
+            return
+        md = self.modules.get(delivery.module)
+        if md is None or not md.send_now(delivery):  # issue #20: straight out when it can
             self._queue(delivery)
 
     def _queue(self, delivery: Delivery) -> None:
@@ -197,6 +201,7 @@ class Dispatcher:
                 "refused": md.counters.refused,
                 "retried": md.counters.retried,
                 "expired": md.counters.expired,
+                "direct": md.counters.direct,  # of `in`: sent without the queue (issue #20)
                 "discarded": md.queue.counters.discarded,
                 "bytes": md.queue.held_bytes,  # OA-LIM-8
                 "dropped_bytes": md.queue.counters.dropped_bytes,

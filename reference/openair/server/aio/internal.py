@@ -162,6 +162,8 @@ class InternalModule:
 class InternalDelivery(ModuleDelivery):
     """An internal module's queue and task: items go to the handler instead of a socket."""
 
+    direct = False  # its task calls the handler: every delivery goes through the queue
+
     def __init__(
         self, module: InternalModule, dispatcher: Dispatcher, handler: Handler, *, threaded: bool
     ) -> None:

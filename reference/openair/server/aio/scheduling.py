@@ -83,6 +83,11 @@ class TurnGate:
         self._order: TurnOrder[asyncio.Future[int]] = TurnOrder()
         self._scheduled = False
 
+    @property
+    def waiting(self) -> bool:
+        """Whether a module waits for a turn (or a release is due in this loop iteration)."""
+        return self._scheduled or bool(self._order)
+
     async def turn(self, *, wb_priority: float, priority: float, want: int) -> int:
         """Wait for this module's turn; return how many deliveries it may start now (>= 1)."""
         loop = asyncio.get_running_loop()

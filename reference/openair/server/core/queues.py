@@ -133,8 +133,13 @@ class DeliveryQueue:
         due_ns: int = 0,
         wire: bytes | tuple[bytes, ...] | None = None,
         expires_ns: int = 0,
+        now_ns: int = 0,
     ) -> list[QueueItem]:
-        """Queue `message`; return every item dropped for lack of room (OA-DELIV-9, OA-LIM-8)."""
+        """Queue `message`; return every item dropped for lack of room (OA-DELIV-9, OA-LIM-8).
+
+        An item due at or before `now_ns` joins the ordered queue at once (as `pop(now_ns)`
+        would move it there first), without passing through the delayed heap.
+        """
         self._seq += 1
         item = QueueItem(
             message=message,
@@ -149,7 +154,7 @@ class DeliveryQueue:
         self._items[item.seq] = item
         self._bytes += item.size
         heapq.heappush(self._victims, (-priority, item.seq))
-        if due_ns > 0:
+        if due_ns > now_ns:
             self._waiting.add(item.seq)
             heapq.heappush(self._delayed, (due_ns, item.seq))
         else:
@@ -163,6 +168,16 @@ class DeliveryQueue:
         self.counters.peak = max(self.counters.peak, len(self._items))
         self._compact()
         return victims
+
+    def passed(self) -> int:
+        """Count an item sent without being queued (pushed and popped at once); return its seq."""
+        self._seq += 1
+        counters = self.counters
+        counters.pushed += 1
+        counters.popped += 1
+        if counters.peak < 1:
+            counters.peak = 1
+        return self._seq
 
     def _drop_one(self) -> QueueItem:
         """Remove the oldest item of the lowest priority (OA-DELIV-9)."""

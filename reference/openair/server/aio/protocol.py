@@ -200,6 +200,9 @@ class ServerConnection(asyncio.BufferedProtocol):
         """Act on one read: the data path first, then the reader and the reference path."""
         if self._datapath is not None and not self.responder.held:
             data = self._datapath.feed(self, data, received_ns)  # issue #20: bytes level first
+            held = self._partial or self._kept_bytes or self.responder.held
+            if not (data or held or self.reader.buffered):
+                return  # it took every byte and nothing is held: `process` has no work
         if self._feed_reader(data):
             self.process(received_ns)
 

@@ -101,7 +101,7 @@ class PurePath:
     def _requests(self, conn: ServerConnection, buf: bytes, received_ns: int) -> int:
         """Route the recognised requests at the front of `buf`; return where the rest starts."""
         limits = conn.xml_limits
-        max_xml = min(conn.host.limits.frame_limits().max_xml, OFF_LOOP_XML - 1)
+        max_xml = min(conn.host.limits.max_frame_xml, OFF_LOOP_XML - 1)
         pos = 0
         clock = _clock_of(conn)
         for start, end in self.split(buf, 0, max_xml):

@@ -90,7 +90,9 @@ class ModuleDelivery:
         self.name = name
         self._d = dispatcher
         self.queue = DeliveryQueue(
-            capacity=dispatcher.capacity, max_bytes=dispatcher.max_queue_bytes
+            capacity=dispatcher.capacity,
+            max_bytes=dispatcher.max_queue_bytes,
+            tally=dispatcher.tally,
         )
         self.counters = ModuleCounters()
         self._retry: list[_Attempt] = []

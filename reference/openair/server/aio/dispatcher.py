@@ -18,7 +18,7 @@ from openair.server.aio.delivery import ModuleDelivery
 from openair.server.aio.protocol import ServerConnection
 from openair.server.aio.scheduling import DEFAULT_TURN_BUDGET, TurnGate
 from openair.server.aio.wakeupbuilds import Builds
-from openair.server.core.queues import QueueItem
+from openair.server.core.queues import ByteTally, QueueItem
 from openair.server.core.router import Delivery, ModuleInfo
 from openair.server.core.streamspec import StoredSample
 
@@ -77,6 +77,7 @@ class Dispatcher:
         self.max_in_flight = max_in_flight
         self.options = options or DeliveryOptions()
         self.modules: dict[str, ModuleDelivery] = {}
+        self.tally = ByteTally()  # what every module's queue holds (OA-LIM-14)
         self.gate = TurnGate(self.options.turn_budget)  # whiteboard priority across modules
         self._idle_waiters: list[asyncio.Future[None]] = []
         self.on_drop: Callable[[str, QueueItem], None] | None = None
@@ -186,8 +187,8 @@ class Dispatcher:
         return left
 
     def queued_bytes(self) -> int:
-        """The bytes every module's queue holds together (OA-LIM-14)."""
-        return sum(md.queue.held_bytes for md in self.modules.values())
+        """The bytes every module's queue holds together (OA-LIM-14), kept as they change."""
+        return self.tally.bytes
 
     def counters(self) -> dict[str, dict[str, int]]:
         """Per module: queue depth, items in, delivered, dropped, failed, refused, retried."""

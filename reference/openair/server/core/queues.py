@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from openair.observing import message_bytes as item_bytes
 from openair.protocol.message import Message
 
-__all__ = ["DeliveryQueue", "QueueCounters", "QueueItem", "item_bytes"]
+__all__ = ["ByteTally", "DeliveryQueue", "QueueCounters", "QueueItem", "item_bytes"]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -65,6 +65,14 @@ class QueueCounters:
 
 
 @dataclass(slots=True)
+class ByteTally:
+    """The bytes several queues hold together, kept as they change (OA-LIM-14 reads it per post:
+    summing every module's queue there was O(modules) a post)."""
+
+    bytes: int = 0
+
+
+@dataclass(slots=True)
 class DeliveryQueue:
     """The pending deliveries of one module, bounded by `capacity` and `max_bytes` (OA-DELIV-8).
 
@@ -74,6 +82,7 @@ class DeliveryQueue:
     capacity: int
     max_bytes: int = 0
     counters: QueueCounters = field(default_factory=QueueCounters)
+    tally: ByteTally = field(default_factory=ByteTally)  # shared by a server's queues
     _ready: list[tuple[float, float, int]] = field(default_factory=list)
     _delayed: list[tuple[int, int]] = field(default_factory=list)
     _victims: list[tuple[float, int]] = field(default_factory=list)
@@ -153,6 +162,7 @@ class DeliveryQueue:
         )
         self._items[item.seq] = item
         self._bytes += item.size
+        self.tally.bytes += item.size
         heapq.heappush(self._victims, (-priority, item.seq))
         if due_ns > now_ns:
             self._waiting.add(item.seq)
@@ -187,6 +197,7 @@ class DeliveryQueue:
             if victim is not None:
                 self._waiting.discard(seq)
                 self._bytes -= victim.size
+                self.tally.bytes -= victim.size
                 self.counters.dropped += 1
                 self.counters.dropped_bytes += victim.size
                 return victim
@@ -207,6 +218,7 @@ class DeliveryQueue:
             item = self._items.pop(seq, None)
             if item is not None:
                 self._bytes -= item.size
+                self.tally.bytes -= item.size
                 self.counters.popped += 1
                 return item
         return None
@@ -228,6 +240,7 @@ class DeliveryQueue:
         """Remove every item (the module's session ended, OA-SESS-15) and return them in order."""
         items = sorted(self._items.values(), key=lambda i: i.order)
         self.counters.discarded += len(items)
+        self.tally.bytes -= self._bytes
         self._bytes = 0
         self._items.clear()
         self._waiting.clear()

@@ -12,7 +12,7 @@ import asyncio
 import time
 
 import pytest
-from server_io_helpers import BOUND, Raw, TestModule, post, run, serving
+from server_io_helpers import BOUND, TRIGGERS, Raw, TestModule, post, run, serving
 
 from openair.protocol.message import Message
 from openair.protocol.wakeup import parse_wakeup
@@ -33,9 +33,10 @@ def _queue(server: Server, name: str) -> dict[str, int]:
     return server.dispatcher.counters()[name]
 
 
-async def _ready(server: Server, module: TestModule, **bind: str) -> Raw:
-    await module.bind(listen=False, **bind)
-    await module.subscribe()
+async def _ready(server: Server, module: TestModule, triggers: str = TRIGGERS) -> Raw:
+    """Bind `module` with a callback connection, subscribe it, return a poster's connection."""
+    await module.bind(listen=False)
+    await module.subscribe(triggers)
     await asyncio.wait_for(server.dispatcher.drained(), BOUND)
     return await Raw.open(server.port)
 
@@ -98,12 +99,8 @@ def test_a_triggers_after_is_waited_for() -> None:
     async def body() -> None:
         server = await serving()
         module = TestModule("Later", server.port)
-        await module.bind(listen=False)
-        await module.subscribe(
-            '<triggers><trigger from="WB1" type="Test.*" after="80"/></triggers>'
-        )
-        await asyncio.wait_for(server.dispatcher.drained(), BOUND)
-        poster = await Raw.open(server.port)
+        later = '<triggers><trigger from="WB1" type="Test.*" after="80"/></triggers>'
+        poster = await _ready(server, module, later)
         started = time.monotonic()
         await poster.request(post("Poster", 0))
         await module.wait_for(1)
@@ -140,10 +137,7 @@ def test_a_due_wakeup_passes_one_that_waits_for_its_after() -> None:
             '<triggers><trigger from="WB1" type="Test.Slow.*" after="150"/>'
             '<trigger from="WB1" type="Test.Fast.*"/></triggers>'
         )
-        await module.bind(listen=False)
-        await module.subscribe(triggers)
-        await asyncio.wait_for(server.dispatcher.drained(), BOUND)
-        poster = await Raw.open(server.port)
+        poster = await _ready(server, module, triggers)
         slow, fast = post("Poster", 0, kind="Test.Slow"), post("Poster", 1, kind="Test.Fast")
         await poster.request(slow)
         await poster.request(fast)

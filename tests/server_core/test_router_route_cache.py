@@ -7,6 +7,7 @@ requires the next post to be routed as a router without a cache would route it.
 
 from __future__ import annotations
 
+import pytest
 from router_harness import Harness, wakeups
 
 from openair.server.core import router_routes
@@ -70,10 +71,7 @@ def test_cc_is_added_to_each_answer_never_kept() -> None:
     assert _woken(h) == {"M1"}  # the cached answer did not keep M2
 
 
-def test_a_full_cache_starts_again(monkeypatch: object) -> None:
-    import pytest
-
-    assert isinstance(monkeypatch, pytest.MonkeyPatch)
+def test_a_full_cache_starts_again(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(router_routes, "ROUTE_CACHE_SIZE", 4)
     h = Harness()
     h.bind(1, "M1")

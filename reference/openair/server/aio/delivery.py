@@ -84,7 +84,7 @@ class ModuleDelivery:
     """The queue and delivery task of one module."""
 
     #: Whether `send_now` may send past the queue (a subclass with its own task says no).
-    direct = True
+    may_send_now = True
 
     def __init__(self, name: str, dispatcher: Dispatcher) -> None:
         self.name = name
@@ -154,7 +154,7 @@ class ModuleDelivery:
         pushed and popped, as the queue would have.
         """
         if (
-            not self.direct
+            not self.may_send_now
             or not self._parked
             or self._wake.is_set()
             or self._retry

@@ -162,7 +162,7 @@ class InternalModule:
 class InternalDelivery(ModuleDelivery):
     """An internal module's queue and task: items go to the handler instead of a socket."""
 
-    direct = False  # its task calls the handler: every delivery goes through the queue
+    may_send_now = False  # its task calls the handler: every delivery goes through the queue
 
     def __init__(
         self, module: InternalModule, dispatcher: Dispatcher, handler: Handler, *, threaded: bool

@@ -37,12 +37,10 @@ _PHASE_CACHE_SIZE = 256  # PhaseSpec texts kept per registration (one per lasttr
 
 
 class Routes(RouterState):
-    """The router's part that decides whom a post wakes."""
+    """The router's part that decides whom a post wakes, and the wakeup each of them gets."""
 
     _routes: dict[_Key, Woken]
     _routes_at: tuple[int, int]  # (the router's index changes, the sessions' generation)
-    _index_changes: int
-    defer_large_wakeups: bool
 
     def _woken(self, board: Whiteboard, stored: Message) -> Woken:
         """Return each bound module to wake with (after ms, lasttrigger) (OA-WAKE-5/6)."""

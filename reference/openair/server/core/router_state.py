@@ -66,6 +66,7 @@ class RouterState:
         observer: Callable[[str, Message, tuple[Delivery, ...]], None] | None
         defer_large_replies: bool
         defer_store_replies: bool
+        defer_large_wakeups: bool
         address: str
         port: int
         limits: ServerLimits
@@ -98,13 +99,15 @@ class RouterState:
         def _error(self, msg: Message, err: OpenAIRError, sender: str, now_ns: int) -> Message: ...
         def _module_counters(self, name: str) -> ModuleCounters: ...
         def _notice(self, type_: str, now_ns: int) -> tuple[Delivery, ...]: ...
-        def _decide(
-            self, board: Whiteboard, stored: Message, now_ns: int
-        ) -> tuple[Delivery, ...]: ...
         def _post(
             self, board: Whiteboard, msg: Message, received_ns: int, now_ns: int
         ) -> Outcome: ...
         def _refuse_shutting_down(self, msg: Message, now_ns: int) -> Outcome: ...
+
+        # router_routes.py
+        def _decide(
+            self, board: Whiteboard, stored: Message, now_ns: int
+        ) -> tuple[Delivery, ...]: ...
 
         # router_registrations.py
         def registration(self, name: str) -> Registration | None: ...

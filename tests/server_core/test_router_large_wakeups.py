@@ -3,7 +3,8 @@
 `Router.defer_large_wakeups` (the asyncio server sets it) hands a wakeup whose text passes
 `LARGE_WAKEUP` to the adapter unwritten; what `build()` writes must be the very message and
 frame the router writes at once, whatever the retrieves, and writing it must leave the router's
-cache of encoded copies alone (it runs on another thread).
+cache of encoded copies alone (it runs on another thread): what it encoded is kept by the
+router's next decision.
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ def test_a_small_wakeup_is_written_at_once(monkeypatch: pytest.MonkeyPatch) -> N
     assert parse_wakeup(delivery.message).trigger is not None
 
 
-def test_building_reads_the_cache_of_encoded_copies_and_never_writes_it(
+def test_building_reads_the_cache_of_encoded_copies_and_the_router_keeps_what_it_wrote(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     ids = itertools.count()
@@ -98,6 +99,9 @@ def test_building_reads_the_cache_of_encoded_copies_and_never_writes_it(
     assert copies._xml == cached  # neither did building
     trigger = parse_wakeup(message).trigger
     assert isinstance(trigger, Message) and trigger.content == "z" * (LARGE_WAKEUP + 1)
+    assert delivery.trigger is not None and copies.peek(delivery.trigger) is None
+    h.post(1, "Test.Next", content="w")  # the router's next decision keeps what was offered
+    assert copies.peek(delivery.trigger) is not None
 
 
 def test_a_large_retrieve_reply_is_handed_over_as_its_frame_only() -> None:

@@ -95,6 +95,7 @@ class Routes(RouterState):
         chosen = self._woken(board, stored)
         if not chosen:
             return ()
+        self._copies.settle()  # keep what the worker encoded for earlier wakeups (issue #19)
         base_ns = board.last_received_ns  # the receivedTime stamped on `stored`
         posted = cmd.ms_time(now_ns)
         trigger = TriggerXml(stored)  # the stored copy is written once per post

@@ -1,0 +1,105 @@
+"""The cache of encoded stored copies shared with the worker thread (issue #19).
+
+`EncodedCopies` belongs to the router's thread; a wakeup written on the worker reads it through
+`PeekedCopies`, offers back what it had to encode, and lets the interpreter lock go now and
+then. The router keeps what was offered at its next decision (`settle`).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from openair.protocol import wakeup
+from openair.protocol.message import Message
+from openair.protocol.wakeup import EncodedCopies, PeekedCopies, stored_xml
+
+
+def _copies(n: int) -> list[Message]:
+    return [Message(type=f"Test.{i}", id=f"m{i}", sender="S", content="x" * i) for i in range(n)]
+
+
+def test_a_copy_encoded_by_a_reader_is_kept_at_the_owners_next_settle() -> None:
+    copies = EncodedCopies(size=8)
+    (msg,) = _copies(1)
+    assert PeekedCopies(copies).xml(msg) == stored_xml(msg)
+    assert copies.peek(msg) is None  # the reader's thread never changes the cache
+    copies.settle()
+    assert copies.peek(msg) == stored_xml(msg)
+
+
+def test_a_cached_copy_is_read_not_offered_again() -> None:
+    copies = EncodedCopies(size=8)
+    (msg,) = _copies(1)
+    copies.xml(msg)
+    reader = PeekedCopies(copies)
+    assert reader.xml(msg) == stored_xml(msg)
+    assert not copies._offered
+
+
+def test_what_waits_for_settle_is_bounded_by_the_cache_size() -> None:
+    copies = EncodedCopies(size=4)
+    reader = PeekedCopies(copies)
+    msgs = _copies(10)
+    for msg in msgs:
+        reader.xml(msg)
+    assert len(copies._offered) == 4
+    copies.settle()
+    assert not copies._offered
+    assert [copies.peek(m) is not None for m in msgs] == [True] * 4 + [False] * 6
+
+
+def test_settle_keeps_the_size_and_byte_bounds() -> None:
+    copies = EncodedCopies(size=3)
+    reader = PeekedCopies(copies)
+    msgs = _copies(3)
+    for msg in msgs:
+        copies.xml(msg)
+    newer = _copies(5)[3:]
+    for msg in newer:
+        reader.xml(msg)
+    copies.settle()
+    assert len(copies._xml) == 3  # the oldest went, as for a copy the owner encoded
+    assert copies.peek(msgs[0]) is None and all(copies.peek(m) for m in newer)
+    assert copies._bytes == sum(2 * len(stored_xml(m)) for m in (msgs[2], *newer))
+
+
+def test_settle_keeps_an_entry_the_owner_made_in_the_meantime() -> None:
+    copies = EncodedCopies(size=8)
+    (msg,) = _copies(1)
+    PeekedCopies(copies).xml(msg)
+    copies.xml(msg)  # the owner encoded it too before settling
+    copies.settle()
+    assert len(copies._xml) == 1
+    assert copies._bytes == 2 * len(stored_xml(msg))
+
+
+class _Clock:
+    def __init__(self) -> None:
+        self.now = 0.0
+        self.sleeps: list[float] = []
+
+    def perf_counter(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.sleeps.append(seconds)
+
+
+def test_a_reader_lets_the_lock_go_after_each_slice_of_work(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    clock = _Clock()
+    monkeypatch.setattr(wakeup, "time", clock)
+    copies = EncodedCopies(size=64)
+    msgs = _copies(10)
+    for msg in msgs:
+        copies.xml(msg)
+    reader = PeekedCopies(copies)
+    for msg in msgs[:5]:  # quicker than a slice: no pause
+        clock.now += wakeup.PAUSE_AFTER_S / 10
+        reader.xml(msg)
+    assert clock.sleeps == []
+    for msg in msgs[5:]:  # each past a slice: a pause each
+        clock.now += wakeup.PAUSE_AFTER_S * 1.5
+        reader.xml(msg)
+    assert clock.sleeps == [0] * 5

@@ -7,9 +7,6 @@ then. The router keeps what was offered at its next decision (`settle`).
 
 from __future__ import annotations
 
-import pytest
-
-from openair.protocol import wakeup
 from openair.protocol.message import Message
 from openair.protocol.wakeup import EncodedCopies, PeekedCopies, stored_xml
 
@@ -73,33 +70,16 @@ def test_settle_keeps_an_entry_the_owner_made_in_the_meantime() -> None:
     assert copies._bytes == 2 * len(stored_xml(msg))
 
 
-class _Clock:
-    def __init__(self) -> None:
-        self.now = 0.0
-        self.sleeps: list[float] = []
-
-    def perf_counter(self) -> float:
-        return self.now
-
-    def sleep(self, seconds: float) -> None:
-        self.sleeps.append(seconds)
-
-
-def test_a_reader_lets_the_lock_go_after_each_slice_of_work(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    clock = _Clock()
-    monkeypatch.setattr(wakeup, "time", clock)
+def test_a_reader_calls_the_caches_pause_before_each_copy() -> None:
     copies = EncodedCopies(size=64)
-    msgs = _copies(10)
-    for msg in msgs:
+    msgs = _copies(6)
+    for msg in msgs[:3]:
         copies.xml(msg)
+    calls: list[int] = []
+    copies.pause = lambda: calls.append(len(copies._offered))
     reader = PeekedCopies(copies)
-    for msg in msgs[:5]:  # quicker than a slice: no pause
-        clock.now += wakeup.PAUSE_AFTER_S / 10
+    for msg in msgs:  # three hits, three misses: a pause before each
         reader.xml(msg)
-    assert clock.sleeps == []
-    for msg in msgs[5:]:  # each past a slice: a pause each
-        clock.now += wakeup.PAUSE_AFTER_S * 1.5
-        reader.xml(msg)
-    assert clock.sleeps == [0] * 5
+    assert calls == [0, 0, 0, 0, 1, 2]
+    copies.xml(msgs[0])  # the owner's own encoding never pauses
+    assert len(calls) == 6

@@ -8,9 +8,8 @@ before `postedTime`; its PhaseSpec carries `pid`, `currentcontexts` and `activat
 
 from __future__ import annotations
 
-import time
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from lxml import etree
@@ -146,7 +145,12 @@ class EncodedCopies:
     thread (the router's); another thread reads it with `peek` and hands what it had to encode
     back with `offer`, which the owner keeps at its next `settle` (issue #19: a wakeup of a
     thousand retrieved copies built on the worker thread encoded all of them again every time).
+    `pause`, when the adapter sets it, is called by such a reader before each copy it reads.
     """
+
+    #: Called by a `PeekedCopies` reader before each copy (the server's worker lets the
+    #: interpreter lock go there now and then, issue #19); None: nothing.
+    pause: Callable[[], None] | None
 
     def __init__(self, size: int = 1024, max_bytes: int = 16 << 20) -> None:
         self._size = size
@@ -155,6 +159,7 @@ class EncodedCopies:
         self._xml: dict[int, tuple[Message, str]] = {}
         #: Encoded on another thread, not kept yet: `deque.append` and `popleft` are atomic.
         self._offered: deque[tuple[Message, str]] = deque()
+        self.pause = None
 
     def peek(self, msg: Message) -> str | None:
         """Return the cached XML of `msg`, or None; it never changes the cache.
@@ -203,31 +208,22 @@ class EncodedCopies:
         self._bytes += cost
 
 
-#: How long a `PeekedCopies` reader works before it lets the interpreter lock go (issue #19).
-PAUSE_AFTER_S = 0.0001
-
-
 class PeekedCopies:
     """`EncodedCopies` read from another thread: a hit is reused, a miss encoded and offered.
 
-    Such a reader also lets the interpreter lock go (`time.sleep(0)`) after every
-    `PAUSE_AFTER_S` of work. The event loop releases the lock at each of its system calls and
-    then waits for it until the holder lets go: at most the switch interval (0.5 ms in the
-    server) each time, several times in one client's turn. Measured on `make stress`'s
-    wakeup-retrieves: a turn of 1.5 ms of work took 5-6 ms while the worker wrote a wakeup of
-    a thousand copies; with the pauses, 2-3 ms.
+    Before each copy it calls the cache's `pause` (when set): the server's worker lets the
+    interpreter lock go there now and then, so the event loop, which gives the lock up at each
+    system call, does not wait a whole switch interval for it each time (issue #19).
     """
 
     def __init__(self, copies: EncodedCopies) -> None:
         self._copies = copies
-        self._since = time.perf_counter()
+        self._pause = copies.pause
 
     def xml(self, msg: Message) -> str:
         """Return `stored_xml(msg)`, from the cache when it holds it."""
-        now = time.perf_counter()
-        if now - self._since > PAUSE_AFTER_S:
-            time.sleep(0)  # whoever waits for the lock takes it now
-            self._since = time.perf_counter()
+        if self._pause is not None:
+            self._pause()
         hit = self._copies.peek(msg)
         if hit is not None:
             return hit

@@ -29,7 +29,12 @@ from openair.observing import ServerObserver
 from openair.protocol.framing import FrameTag
 from openair.protocol.message import Message
 from openair.server.aio.attachments import MonitorHook, load_attachment
-from openair.server.aio.budgets import ACCEPT_BATCH, full_backlog, quiet_accept_errors
+from openair.server.aio.budgets import (
+    ACCEPT_BATCH,
+    full_backlog,
+    pause_for_the_loop,
+    quiet_accept_errors,
+)
 from openair.server.aio.clusternode import ClusterNode, join_cluster
 from openair.server.aio.dispatcher import Dispatcher
 from openair.server.aio.fairness import Turns
@@ -412,6 +417,7 @@ class Server:
         self.router.defer_large_replies = True  # written on a worker thread (issue #19)
         self.router.frames_only = self.sends_frames
         self.router.defer_large_wakeups = True  # so are large wakeups (Dispatcher.builds)
+        self.router.pause_builds(pause_for_the_loop)  # their writer lets the lock go (#19)
         self.router.defer_store_replies = True  # a cluster's acknowledgements (spec 17)
         if self.cluster is not None:
             self.router.elsewhere = self.cluster.store.forward_soon  # OA-CLU-8

@@ -174,6 +174,10 @@ class Router(ComponentCommands, StreamRouting, Registrations, Routes):
         self.started_ns = now_ns
         return Outcome(deliveries=self._notice("Psyclone.Context:Psyclone.System.Ready", now_ns))
 
+    def pause_builds(self, pause: Callable[[], None]) -> None:
+        """Have a large wakeup written on another thread call `pause` before each copy (#19)."""
+        self._copies.pause = pause
+
     def connection_opened(self, conn: ConnId, *, address: str) -> None:
         """Note the peer address of a connection (the module's address, OA-DELIV-1, OA-SESS-4)."""
         self._sessions.opened(conn, address)

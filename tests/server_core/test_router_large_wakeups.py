@@ -15,11 +15,11 @@ import pytest
 from router_harness import Harness
 
 from openair.protocol.message import Message
-from openair.protocol.wakeup import parse_wakeup
+from openair.protocol.wakeup import PIECE_CHARS, parse_wakeup
 from openair.server.core import commands as cmd
 from openair.server.core.outcome import Delivery
 from openair.server.core.retrieve import _LARGE_SCAN
-from openair.server.core.wakeups import LARGE_WAKEUP
+from openair.server.core.wakeups import LARGE_WAKEUP, WakeupParts
 
 RETRIEVING = (
     '<module name="Reader"><triggers from="WB1"><trigger type="Test.Go.*"/></triggers>'
@@ -70,6 +70,32 @@ def test_a_large_wakeup_is_built_later_to_the_same_message_and_frame(
     assert preview.lasttrigger in ("Test.Go.*", "Test.*")
     assert preview.trigger is None and not preview.retrieved
     assert len(later.message.content) < 2048
+
+
+@pytest.mark.parametrize(
+    ("registration", "fill", "content"),
+    [(RETRIEVING, 400, "small"), (RETRIEVING, 300, "ü" * (LARGE_WAKEUP // 4))],
+)
+def test_a_worker_with_pauses_gets_the_frame_in_pieces_with_a_pause_before_each(
+    registration: str, fill: int, content: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    now = _wakeup(False, registration, fill, content, monkeypatch)
+    later = _wakeup(True, registration, fill, content, monkeypatch)
+    assert later.build is not None and isinstance(now.wire, bytes)
+    build = later.build
+    owner = getattr(build, "__self__", None)
+    assert isinstance(owner, WakeupParts)
+    pauses: list[int] = []
+    owner.copies.pause = lambda: pauses.append(1)
+    message, wire = build()
+    assert message == now.message
+    assert isinstance(wire, tuple)
+    assert b"".join(wire) == now.wire  # the same frame, never joined on the worker
+    content_pieces = wire[2:-1]  # after the header and the envelope, before the end tag
+    assert len(content_pieces) == -(-len(now.message.content) // PIECE_CHARS)
+    assert all(len(p) <= 4 * PIECE_CHARS for p in content_pieces)
+    # one pause before each retrieved copy and the trigger, one before each piece
+    assert len(pauses) >= len(content_pieces) + 1
 
 
 def test_a_small_wakeup_is_written_at_once(monkeypatch: pytest.MonkeyPatch) -> None:

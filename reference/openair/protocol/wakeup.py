@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import overload
 
 from lxml import etree
 
@@ -286,6 +287,13 @@ def phase_spec_xml(phase: Phase | None, *, module: str, lasttrigger: str) -> str
     return serialize(phase_spec_element(phase, module=module, lasttrigger=lasttrigger))
 
 
+#: Characters of a wakeup encoded at a time when it is written in pieces (`assemble_wakeup`'s
+#: `pause`): each piece is a block of the heap, not a fresh mapping to fault in, and encoding
+#: it holds the interpreter lock some tens of microseconds, not a millisecond (issue #19).
+PIECE_CHARS = 128 * 1024
+
+
+@overload
 def assemble_wakeup(
     *,
     trigger_xml: str,
@@ -295,12 +303,42 @@ def assemble_wakeup(
     module: str,
     id: str,
     posted: AirTime,
-) -> tuple[Message, bytes | None]:
+    pause: None = None,
+) -> tuple[Message, bytes | None]: ...
+
+
+@overload
+def assemble_wakeup(
+    *,
+    trigger_xml: str,
+    retrieved_xml: str,
+    phase_xml: str,
+    whiteboard: str,
+    module: str,
+    id: str,
+    posted: AirTime,
+    pause: Callable[[], None],
+) -> tuple[Message, tuple[bytes, ...] | None]: ...
+
+
+def assemble_wakeup(
+    *,
+    trigger_xml: str,
+    retrieved_xml: str,
+    phase_xml: str,
+    whiteboard: str,
+    module: str,
+    id: str,
+    posted: AirTime,
+    pause: Callable[[], None] | None = None,
+) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
     """Build the wakeup `build_wakeup` would (posted at `posted`) and its Message frame bytes.
 
     The parts are the outputs of `stored_xml`, `collection_xml` and `phase_spec_xml`, so the
     content is the text lxml would write; the frame is None when only the lxml writer can say
-    whether the message can be written (then the sender encodes it as usual).
+    whether the message can be written (then the sender encodes it as usual). With `pause`
+    (a writer on another thread, issue #19) the frame is its parts, never joined: the content
+    encoded `PIECE_CHARS` at a time, `pause()` called before each piece.
     """
     content = (
         f"{_TRIGGER_OPEN}{trigger_xml}{_RETRIEVED_OPEN}{retrieved_xml}"
@@ -322,9 +360,16 @@ def assemble_wakeup(
     if envelope is None or id_xml is None:
         return msg, None  # only the lxml writer can say what is wrong
     head, middle = envelope
-    # Encoded in pieces and joined once with the frame's header: a wakeup of megabytes is copied
-    # twice here, not four times (issue #19: it is written on the worker, holding the lock).
     before = f"{head}{id_xml}{middle}{time_xml('postedTime', posted)}{_CONTENT_OPEN}"
+    if pause is not None:
+        parts = [before.encode("utf-8")]
+        for at in range(0, len(content), PIECE_CHARS):
+            pause()
+            parts.append(content[at : at + PIECE_CHARS].encode("utf-8"))
+        parts.append(_END_BYTES)
+        return msg, (frame_header(sum(map(len, parts))), *parts)
+    # Encoded in pieces and joined once with the frame's header: a wakeup of megabytes is copied
+    # twice here, not four times.
     pieces = (before.encode("utf-8"), content.encode("utf-8"), _END_BYTES)
     length = sum(map(len, pieces))
     return msg, b"".join((_MESSAGE_HEADER[:8], length.to_bytes(4, "little"), *pieces))

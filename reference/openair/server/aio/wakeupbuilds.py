@@ -88,7 +88,9 @@ class Builds:
         return left
 
     def _run(
-        self, delivery: Delivery, build: Callable[[], tuple[Message, bytes | None]]
+        self,
+        delivery: Delivery,
+        build: Callable[[], tuple[Message, bytes | tuple[bytes, ...] | None]],
     ) -> Delivery | None:
         """Write `delivery` here and now; None (logged, counted) when the build raised."""
         try:
@@ -114,7 +116,9 @@ class Builds:
         future.add_done_callback(lambda done: self._built(delivery, done))
 
     def _built(
-        self, delivery: Delivery, done: asyncio.Future[tuple[Message, bytes | None]]
+        self,
+        delivery: Delivery,
+        done: asyncio.Future[tuple[Message, bytes | tuple[bytes, ...] | None]],
     ) -> None:
         held = self._behind.get(delivery.module)
         if held is None or held[0] is not delivery:

@@ -30,14 +30,14 @@ class Delivery:
     priority: float  # the carried message's effective priority (OA-PRIO-1)
     wb_priority: float  # the sending whiteboard's priority (OA-PRIO-2)
     # The Message frame of `message` when the router already wrote it (a wakeup), else None.
-    wire: bytes | None = field(default=None, compare=False, repr=False)
+    wire: bytes | tuple[bytes, ...] | None = field(default=None, compare=False, repr=False)
     expires_ns: int = 0  # OA-DELIV-14: dropped when still unsent at this time (0: never)
     # A wakeup's stored trigger message, for internal modules (OA-CONF-8: no XML to parse).
     trigger: Message | None = field(default=None, compare=False, repr=False)
     # A large wakeup still to be written (issue #19): `message` is then only its preview (the
     # envelope and PhaseSpec, `WakeupParts.preview`) and the adapter queues the delivery with
     # what `build()` returns, (message, wire), written off its event loop, in the module's order.
-    build: Callable[[], tuple[Message, bytes | None]] | None = field(
+    build: Callable[[], tuple[Message, bytes | tuple[bytes, ...] | None]] | None = field(
         default=None, compare=False, repr=False
     )
     build_bytes: int = field(default=0, compare=False, repr=False)  # its text, at least

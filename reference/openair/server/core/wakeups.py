@@ -86,11 +86,27 @@ class WakeupParts:
             self.trigger.now(self.copies), collection_xml(self.retrieved, self.copies)
         )
 
-    def build(self) -> tuple[Message, bytes | None]:
-        """Write the wakeup on a worker thread: the same message and frame as `write()`."""
+    def build(self) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
+        """Write the wakeup on a worker thread: the same message and frame as `write()`.
+
+        With the cache's `pause` (the server's worker) the frame comes in parts, encoded a
+        piece at a time with a pause before each (issue #19).
+        """
         peeked = PeekedCopies(self.copies)
-        return self._assemble(
-            self.trigger.later(self.copies), collection_xml(self.retrieved, peeked)
+        trigger_xml = self.trigger.later(self.copies)
+        retrieved_xml = collection_xml(self.retrieved, peeked)
+        pause = self.copies.pause
+        if pause is None:
+            return self._assemble(trigger_xml, retrieved_xml)
+        return assemble_wakeup(
+            trigger_xml=trigger_xml,
+            retrieved_xml=retrieved_xml,
+            phase_xml=self.phase_xml,
+            whiteboard=self.whiteboard,
+            module=self.module,
+            id=self.id,
+            posted=self.posted,
+            pause=pause,
         )
 
     def preview(self) -> Message:

@@ -45,6 +45,19 @@ def test_what_waits_for_settle_is_bounded_by_the_cache_size() -> None:
     assert [copies.peek(m) is not None for m in msgs] == [True] * 4 + [False] * 6
 
 
+def test_what_waits_for_settle_is_bounded_by_the_cache_bytes() -> None:
+    msgs = _copies(8)
+    budget = sum(2 * len(stored_xml(m)) for m in msgs[:5])
+    copies = EncodedCopies(size=64, max_bytes=budget)
+    reader = PeekedCopies(copies)
+    for msg in msgs:
+        reader.xml(msg)
+    assert [m for m, _ in copies._offered] == msgs[:5]  # the next would pass the bytes
+    copies.settle()
+    reader.xml(msgs[7])  # what was taken no longer counts
+    assert [m for m, _ in copies._offered] == [msgs[7]]
+
+
 def test_settle_keeps_the_size_and_byte_bounds() -> None:
     copies = EncodedCopies(size=3)
     reader = PeekedCopies(copies)

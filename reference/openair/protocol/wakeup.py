@@ -160,6 +160,10 @@ class EncodedCopies:
         self._xml: dict[int, tuple[Message, str]] = {}
         #: Encoded on another thread, not kept yet: `deque.append` and `popleft` are atomic.
         self._offered: deque[tuple[Message, str]] = deque()
+        # Their cost as `_keep` counts it: added by the offering thread only, taken by the
+        # owner's only (no lock: each counter has one writer).
+        self._offered_in = 0
+        self._offered_out = 0
         self.pause = None
 
     def peek(self, msg: Message) -> str | None:
@@ -174,16 +178,21 @@ class EncodedCopies:
     def offer(self, msg: Message, text: str) -> None:
         """Hand `stored_xml(msg)`, encoded on another thread, to the owner's next `settle`.
 
-        Any thread. At most `size` wait: more would be evicted by the next ones anyway.
+        Any thread. At most `size` wait, of at most the cache's `max_bytes`: more would be
+        evicted by the next ones anyway.
         """
-        if len(self._offered) < self._size:
+        cost = 2 * len(text)
+        waiting = self._offered_in - self._offered_out
+        if len(self._offered) < self._size and waiting + cost <= self._max_bytes:
             self._offered.append((msg, text))
+            self._offered_in += cost
 
     def settle(self) -> None:
         """Keep what other threads offered (the owner's thread only)."""
         offered = self._offered
         while offered:
             msg, text = offered.popleft()
+            self._offered_out += 2 * len(text)
             hit = self._xml.get(id(msg))
             if hit is None or hit[0] is not msg:
                 self._keep(msg, text)

@@ -11,7 +11,6 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import overload
 
 from lxml import etree
 
@@ -300,34 +299,6 @@ def phase_spec_xml(phase: Phase | None, *, module: str, lasttrigger: str) -> str
 #: `pause`): each piece is a block of the heap, not a fresh mapping to fault in, and encoding
 #: it holds the interpreter lock some tens of microseconds, not a millisecond (issue #19).
 PIECE_CHARS = 128 * 1024
-
-
-@overload
-def assemble_wakeup(
-    *,
-    trigger_xml: str,
-    retrieved_xml: str,
-    phase_xml: str,
-    whiteboard: str,
-    module: str,
-    id: str,
-    posted: AirTime,
-    pause: None = None,
-) -> tuple[Message, bytes | None]: ...
-
-
-@overload
-def assemble_wakeup(
-    *,
-    trigger_xml: str,
-    retrieved_xml: str,
-    phase_xml: str,
-    whiteboard: str,
-    module: str,
-    id: str,
-    posted: AirTime,
-    pause: Callable[[], None],
-) -> tuple[Message, tuple[bytes, ...] | None]: ...
 
 
 def assemble_wakeup(

@@ -15,7 +15,7 @@ an observer that keeps deliveries needs (the wakeup's id, its lasttrigger), a fe
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from openair.protocol.message import Message
@@ -80,7 +80,7 @@ class WakeupParts:
         retrieved = self.retrieved
         return self.trigger.size + (sum(map(text_bytes, retrieved)) if retrieved else 0)
 
-    def write(self) -> tuple[Message, bytes | None]:
+    def write(self) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
         """Write the wakeup on the router's thread (filling the router's cache)."""
         return self._assemble(
             self.trigger.now(self.copies), collection_xml(self.retrieved, self.copies)
@@ -94,10 +94,17 @@ class WakeupParts:
         """
         peeked = PeekedCopies(self.copies)
         trigger_xml = self.trigger.later(self.copies)
-        retrieved_xml = collection_xml(self.retrieved, peeked)
-        pause = self.copies.pause
-        if pause is None:
-            return self._assemble(trigger_xml, retrieved_xml)
+        return self._assemble(
+            trigger_xml, collection_xml(self.retrieved, peeked), self.copies.pause
+        )
+
+    def preview(self) -> Message:
+        """The wakeup without its trigger or retrieved messages: envelope, id and PhaseSpec."""
+        return self._assemble("", collection_xml(()))[0]
+
+    def _assemble(
+        self, trigger_xml: str, retrieved_xml: str, pause: Callable[[], None] | None = None
+    ) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
         return assemble_wakeup(
             trigger_xml=trigger_xml,
             retrieved_xml=retrieved_xml,
@@ -107,19 +114,4 @@ class WakeupParts:
             id=self.id,
             posted=self.posted,
             pause=pause,
-        )
-
-    def preview(self) -> Message:
-        """The wakeup without its trigger or retrieved messages: envelope, id and PhaseSpec."""
-        return self._assemble("", collection_xml(()))[0]
-
-    def _assemble(self, trigger_xml: str, retrieved_xml: str) -> tuple[Message, bytes | None]:
-        return assemble_wakeup(
-            trigger_xml=trigger_xml,
-            retrieved_xml=retrieved_xml,
-            phase_xml=self.phase_xml,
-            whiteboard=self.whiteboard,
-            module=self.module,
-            id=self.id,
-            posted=self.posted,
         )

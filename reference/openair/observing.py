@@ -27,6 +27,7 @@ from collections.abc import Callable, Iterator
 from typing import Protocol, runtime_checkable
 
 from openair.protocol.content import Registration
+from openair.protocol.framing import Wire
 from openair.protocol.message import Message
 
 __all__ = [
@@ -63,7 +64,7 @@ class Delivered(Protocol):
     def priority(self) -> float: ...
 
     @property
-    def wire(self) -> bytes | tuple[bytes, ...] | None: ...
+    def wire(self) -> Wire | None: ...
 
 
 class Acknowledged(Protocol):
@@ -205,7 +206,7 @@ class ObservedServer(Protocol):
         """Route `msg` as a post that came from no connection (the monitor's post form)."""
 
 
-def message_bytes(message: Message, wire: bytes | tuple[bytes, ...] | None) -> int:
+def message_bytes(message: Message, wire: Wire | None) -> int:
     """Return the bytes of a message as it travels: its frame, or an estimate from its slots.
 
     What OA-LIM-8 bounds (a delivery's size). A holder that keeps the message's text as well as
@@ -219,7 +220,7 @@ def message_bytes(message: Message, wire: bytes | tuple[bytes, ...] | None) -> i
     return size + sum(len(chunk) for chunk in message.binary)
 
 
-def held_bytes(message: Message, wire: bytes | tuple[bytes, ...] | None) -> int:
+def held_bytes(message: Message, wire: Wire | None) -> int:
     """Return the memory a message held with its frame takes: its text and its frame.
 
     The frame is an encoded copy of the text: a wakeup of a megabyte is a megabyte of content

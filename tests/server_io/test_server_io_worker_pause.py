@@ -8,6 +8,7 @@ wakeups call it before each copy (`Router.pause_builds`).
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 
 import pytest
 from server_io_helpers import run, serving
@@ -29,8 +30,7 @@ class _Time:
         self.sleeps.append(seconds)
 
 
-def _on_thread(name: str, body: object) -> None:
-    assert callable(body)
+def _on_thread(name: str, body: Callable[[], None]) -> None:
     thread = threading.Thread(target=body, name=name)
     thread.start()
     thread.join(10)

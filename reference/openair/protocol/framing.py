@@ -43,11 +43,16 @@ __all__ = [
     "FrameLimits",
     "FrameReader",
     "FrameTag",
+    "Wire",
     "binary_sizes",
     "coalesce",
     "encode_frame",
     "encode_frame_parts",
 ]
+
+#: A message's frame written already: its bytes, or parts to write in order (a header and the
+#: XML, then chunks that are never copied into one buffer, spec 11.2; a large wakeup's pieces).
+Wire = bytes | tuple[bytes, ...]
 
 HEADER_SIZE = 12  # 7-byte tag, NUL, uint32 length (OA-FRAME-1)
 MAX_LENGTH = 0xFFFF_FFFF  # the largest L a uint32 can carry

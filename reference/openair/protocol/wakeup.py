@@ -24,7 +24,7 @@ from openair.protocol.fastcodec import (
     text_slot_xml,
     time_xml,
 )
-from openair.protocol.framing import Frame, FrameTag, encode_frame
+from openair.protocol.framing import Frame, FrameTag, Wire, encode_frame
 from openair.protocol.message import Message, Slot
 from openair.protocol.objects import (
     attr,
@@ -311,7 +311,7 @@ def assemble_wakeup(
     id: str,
     posted: AirTime,
     pause: Callable[[], None] | None = None,
-) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
+) -> tuple[Message, Wire | None]:
     """Build the wakeup `build_wakeup` would (posted at `posted`) and its Message frame bytes.
 
     The parts are the outputs of `stored_xml`, `collection_xml` and `phase_spec_xml`, so the

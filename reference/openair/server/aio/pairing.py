@@ -25,7 +25,7 @@ from openair.protocol.errors import (
     OpenAIRError,
     RemoteProtocolError,
 )
-from openair.protocol.framing import Frame
+from openair.protocol.framing import Frame, Wire
 from openair.protocol.message import Message
 from openair.protocol.xmlsafe import XmlLimits, local_name, parse_xml
 
@@ -45,10 +45,6 @@ __all__ = [
 ]
 
 log = logging.getLogger("openair.server")
-
-#: A message's frame written already: its bytes, or parts to write in order (a header and the
-#: XML, then chunks that are never copied into one buffer; spec 11.2).
-Wire = bytes | tuple[bytes, ...]
 
 #: Called with the reply, or with the error that ends the wait (a decode error, the connection
 #: closing, CancelledError when an unanswered KEEPALIVE is passed over).

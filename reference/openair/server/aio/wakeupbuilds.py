@@ -18,6 +18,7 @@ import logging
 from collections import deque
 from collections.abc import Callable
 
+from openair.protocol.framing import Wire
 from openair.protocol.message import Message
 from openair.server.aio.budgets import off_loop_executor
 from openair.server.core.outcome import Delivery
@@ -90,7 +91,7 @@ class Builds:
     def _run(
         self,
         delivery: Delivery,
-        build: Callable[[], tuple[Message, bytes | tuple[bytes, ...] | None]],
+        build: Callable[[], tuple[Message, Wire | None]],
     ) -> Delivery | None:
         """Write `delivery` here and now; None (logged, counted) when the build raised."""
         try:
@@ -118,7 +119,7 @@ class Builds:
     def _built(
         self,
         delivery: Delivery,
-        done: asyncio.Future[tuple[Message, bytes | tuple[bytes, ...] | None]],
+        done: asyncio.Future[tuple[Message, Wire | None]],
     ) -> None:
         held = self._behind.get(delivery.module)
         if held is None or held[0] is not delivery:

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from openair.protocol.framing import Wire
 from openair.protocol.message import Message
 from openair.server.core.sessions import ConnId
 from openair.server.core.streamservice import PendingWait, SamplePush, WaitReply
@@ -30,14 +31,14 @@ class Delivery:
     priority: float  # the carried message's effective priority (OA-PRIO-1)
     wb_priority: float  # the sending whiteboard's priority (OA-PRIO-2)
     # The Message frame of `message` when the router already wrote it (a wakeup), else None.
-    wire: bytes | tuple[bytes, ...] | None = field(default=None, compare=False, repr=False)
+    wire: Wire | None = field(default=None, compare=False, repr=False)
     expires_ns: int = 0  # OA-DELIV-14: dropped when still unsent at this time (0: never)
     # A wakeup's stored trigger message, for internal modules (OA-CONF-8: no XML to parse).
     trigger: Message | None = field(default=None, compare=False, repr=False)
     # A large wakeup still to be written (issue #19): `message` is then only its preview (the
     # envelope and PhaseSpec, `WakeupParts.preview`) and the adapter queues the delivery with
     # what `build()` returns, (message, wire), written off its event loop, in the module's order.
-    build: Callable[[], tuple[Message, bytes | tuple[bytes, ...] | None]] | None = field(
+    build: Callable[[], tuple[Message, Wire | None]] | None = field(
         default=None, compare=False, repr=False
     )
     build_bytes: int = field(default=0, compare=False, repr=False)  # its text, at least
@@ -75,7 +76,7 @@ class Outcome:
     push_stream: str = ""
     # A reply too large to write on the event loop (issue #19, item 6): instead of `replies`,
     # a function that builds it and its frame on any thread. Only with `defer_large_replies`.
-    later: Callable[[], tuple[Message, bytes | tuple[bytes, ...] | None]] | None = None
+    later: Callable[[], tuple[Message, Wire | None]] | None = None
     # A cluster node's post or message to another node's module (spec 17): instead of
     # `replies`, the reply once the store or that node answered. Only with
     # `defer_store_replies`.

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 # The size of a held message, shared with the server's observers (the monitor's ring).
 from openair.observing import message_bytes as item_bytes
+from openair.protocol.framing import Wire
 from openair.protocol.message import Message
 
 __all__ = ["ByteTally", "DeliveryQueue", "QueueCounters", "QueueItem", "item_bytes"]
@@ -42,7 +43,7 @@ class QueueItem:
     due_ns: int = 0
     seq: int = 0
     # The frame of `message` already written: bytes, or parts (header + XML, then chunks).
-    wire: bytes | tuple[bytes, ...] | None = field(default=None, compare=False, repr=False)
+    wire: Wire | None = field(default=None, compare=False, repr=False)
     expires_ns: int = field(default=0, compare=False)  # OA-DELIV-14: 0 = never expires
     size: int = field(default=0, compare=False)  # bytes it holds (OA-LIM-8)
 
@@ -115,7 +116,7 @@ class DeliveryQueue:
         priority: float,
         wb_priority: float = 1.0,
         due_ns: int = 0,
-        wire: bytes | tuple[bytes, ...] | None = None,
+        wire: Wire | None = None,
         expires_ns: int = 0,
     ) -> QueueItem | None:
         """Queue `message`; return the item dropped for lack of room, if any (OA-DELIV-9).
@@ -140,7 +141,7 @@ class DeliveryQueue:
         priority: float,
         wb_priority: float = 1.0,
         due_ns: int = 0,
-        wire: bytes | tuple[bytes, ...] | None = None,
+        wire: Wire | None = None,
         expires_ns: int = 0,
         now_ns: int = 0,
     ) -> list[QueueItem]:

@@ -20,6 +20,7 @@ from openair.protocol.errors import (
     WhiteboardUnknownError,
 )
 from openair.protocol.fastcodec import fast_encode_str
+from openair.protocol.framing import Wire
 from openair.protocol.message import Message
 from openair.protocol.objects import parse_content
 from openair.protocol.registration import parse_retrieve_element, parse_retrieves
@@ -124,7 +125,7 @@ class PreparedRetrieve:
                 )
         return results
 
-    def build(self, *, text: bool = True) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
+    def build(self, *, text: bool = True) -> tuple[Message, Wire | None]:
         """Return the reply and its Message frame, as parts (None: the sender encodes it).
 
         The frame is written in parts of about 256 KiB, the collection's pieces encoded a group

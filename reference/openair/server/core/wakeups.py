@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
+from openair.protocol.framing import Wire
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
 from openair.protocol.wakeup import (
@@ -80,13 +81,13 @@ class WakeupParts:
         retrieved = self.retrieved
         return self.trigger.size + (sum(map(text_bytes, retrieved)) if retrieved else 0)
 
-    def write(self) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
+    def write(self) -> tuple[Message, Wire | None]:
         """Write the wakeup on the router's thread (filling the router's cache)."""
         return self._assemble(
             self.trigger.now(self.copies), collection_xml(self.retrieved, self.copies)
         )
 
-    def build(self) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
+    def build(self) -> tuple[Message, Wire | None]:
         """Write the wakeup on a worker thread: the same message and frame as `write()`.
 
         With the cache's `pause` (the server's worker) the frame comes in parts, encoded a
@@ -104,7 +105,7 @@ class WakeupParts:
 
     def _assemble(
         self, trigger_xml: str, retrieved_xml: str, pause: Callable[[], None] | None = None
-    ) -> tuple[Message, bytes | tuple[bytes, ...] | None]:
+    ) -> tuple[Message, Wire | None]:
         return assemble_wakeup(
             trigger_xml=trigger_xml,
             retrieved_xml=retrieved_xml,

@@ -22,6 +22,7 @@ from openair.protocol.content import RetrieveSpec
 from openair.protocol.framing import encode_frame
 from openair.protocol.message import Message
 from openair.protocol.objects import parse_dictionary
+from openair.server.aio import budgets
 from openair.server.aio import responder as responder_module
 from openair.server.aio.app import ServerOptions
 from openair.server.aio.connhost import FlowLimits
@@ -304,9 +305,10 @@ def test_a_large_request_is_decoded_off_the_loop_and_answered_in_order(
         threads.append(threading.current_thread().name)
         return original(frame, limits)
 
-    def recording_lxml(xml: bytes, chunks: Any, limits: Any) -> Message:
+    def recording_lxml(xml: bytes, chunks: Any, limits: Any, **kw: Any) -> Message:
         threads.append(threading.current_thread().name)  # off the loop: lxml lets the lock go
-        return original_lxml(xml, chunks, limits)
+        assert kw == {"pause": budgets.pause_for_the_loop}  # between its steps (the loop gate)
+        return original_lxml(xml, chunks, limits, **kw)
 
     monkeypatch.setattr(responder_module, "from_frame", recording)
     monkeypatch.setattr(responder_module, "decode_with_lxml", recording_lxml)

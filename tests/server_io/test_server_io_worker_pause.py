@@ -1,8 +1,9 @@
 """The worker lets the interpreter lock go between the pieces of a long job (issue #19).
 
-`budgets.pause_for_the_loop` sleeps for no time once the worker held the lock `PAUSE_AFTER_S`
-since its last pause, and never on any other thread; the server has the writer of large
-wakeups call it before each copy (`Router.pause_builds`).
+`budgets.pause_for_the_loop` pauses at the loop gate (`loopgate.LoopGate.pause`: lets the lock
+go, and waits while the loop is at work) once the worker held the lock `PAUSE_AFTER_S` since its
+last pause, and never on any other thread; the server has the writer of large wakeups call it
+before each copy (`Router.pause_builds`).
 """
 
 from __future__ import annotations
@@ -30,6 +31,16 @@ class _Time:
         self.sleeps.append(seconds)
 
 
+class _Gate:
+    """A stand-in for the loop gate: counts the pauses."""
+
+    def __init__(self, clock: _Time) -> None:
+        self.clock = clock
+
+    def pause(self) -> None:
+        self.clock.sleep(0)
+
+
 def _on_thread(name: str, body: Callable[[], None]) -> None:
     thread = threading.Thread(target=body, name=name)
     thread.start()
@@ -39,6 +50,7 @@ def _on_thread(name: str, body: Callable[[], None]) -> None:
 def test_the_worker_pauses_once_per_slice_of_work(monkeypatch: pytest.MonkeyPatch) -> None:
     clock = _Time()
     monkeypatch.setattr(budgets, "time", clock)
+    monkeypatch.setattr(budgets, "LOOP_GATE", _Gate(clock))
     monkeypatch.setattr(budgets, "_paused_at", [clock.now])
 
     def work() -> None:
@@ -57,6 +69,7 @@ def test_the_worker_pauses_once_per_slice_of_work(monkeypatch: pytest.MonkeyPatc
 def test_no_other_thread_pauses(monkeypatch: pytest.MonkeyPatch) -> None:
     clock = _Time()
     monkeypatch.setattr(budgets, "time", clock)
+    monkeypatch.setattr(budgets, "LOOP_GATE", _Gate(clock))
     monkeypatch.setattr(budgets, "_paused_at", [0.0])
     budgets.pause_for_the_loop()  # this thread: the loop's, in a server
     _on_thread("another", budgets.pause_for_the_loop)

@@ -86,11 +86,17 @@ def decode_with_lxml(
     limits: XmlLimits | None = None,
     *,
     clamp_priority: bool = False,
+    pause: Callable[[], None] | None = None,
 ) -> Message:
-    """Decode like `decode_message` but always with lxml (the reference for the fast path)."""
-    root = parse_xml(xml, limits)  # UTF-8 only (OA-MSG-1), hardened (OA-SEC-1/2)
+    """Decode like `decode_message` but always with lxml (the reference for the fast path).
+
+    `pause`, when given, is called between the steps (see `parse_xml`).
+    """
+    root = parse_xml(xml, limits, pause=pause)  # UTF-8 only (OA-MSG-1), hardened (OA-SEC-1/2)
     if _local(root.tag) != "message":  # OA-MSG-1
         raise XmlMalformedError(f"root element is <{root.tag}>, not <message>")
+    if pause is not None:
+        pause()
     return _decode_element(root, chunks, clamp_priority)
 
 

@@ -227,12 +227,13 @@ class PeekedCopies:
 
     def __init__(self, copies: EncodedCopies) -> None:
         self._copies = copies
-        self._pause = copies.pause
+        #: The cache's `pause` when this reader was made (None: nothing to call).
+        self.pause = copies.pause
 
     def xml(self, msg: Message) -> str:
         """Return `stored_xml(msg)`, from the cache when it holds it."""
-        if self._pause is not None:
-            self._pause()
+        if self.pause is not None:
+            self.pause()
         hit = self._copies.peek(msg)
         if hit is not None:
             return hit
@@ -252,7 +253,9 @@ def collection_xml(
     return f"<objectcollection>{inner}</objectcollection>"
 
 
-def collection_parts(msgs: Sequence[Message], copies: EncodedCopies | None = None) -> list[str]:
+def collection_parts(
+    msgs: Sequence[Message], copies: EncodedCopies | PeekedCopies | None = None
+) -> list[str]:
     """Return `collection_xml(msgs)` as the pieces that joined make it: one per message."""
     if not msgs:
         return [_EMPTY_COLLECTION]
@@ -264,12 +267,16 @@ def collection_parts(msgs: Sequence[Message], copies: EncodedCopies | None = Non
     ]
 
 
-def encoded_groups(pieces: Sequence[str], size: int = 256 * 1024) -> list[bytes]:
+def encoded_groups(
+    pieces: Sequence[str],
+    size: int = 256 * 1024,
+    pause: Callable[[], None] | None = None,
+) -> list[bytes]:
     """Return `pieces` encoded as UTF-8 in groups of about `size` characters.
 
     What a worker thread writes for a reply of megabytes: no single join or encode of the whole
     text, each of which holds the interpreter lock for milliseconds while the event loop waits
-    for it (issue #19).
+    for it (issue #19). `pause`, when given, is called before each group is encoded.
     """
     groups: list[bytes] = []
     group: list[str] = []
@@ -278,6 +285,8 @@ def encoded_groups(pieces: Sequence[str], size: int = 256 * 1024) -> list[bytes]
         group.append(piece)
         held += len(piece)
         if held >= size:
+            if pause is not None:
+                pause()
             groups.append("".join(group).encode("utf-8"))
             group, held = [], 0
     if group:

@@ -9,6 +9,7 @@ that sends one is told so (style rule 6: the same hardening in lxml, libxml2 and
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import cast
 
@@ -119,16 +120,25 @@ def _depth(root: etree._Element, limit: int) -> None:
         stack.extend((child, depth + 1) for child in el)
 
 
-def parse_xml(data: bytes | bytearray, limits: XmlLimits | None = None) -> etree._Element:
+def parse_xml(
+    data: bytes | bytearray,
+    limits: XmlLimits | None = None,
+    *,
+    pause: Callable[[], None] | None = None,
+) -> etree._Element:
     """Parse one whole XML document and return its root element.
 
     Raises XmlForbiddenError (DOCTYPE, entity declarations, undefined entities), XmlTooDeepError
     and XmlMalformedError (anything else that is not well-formed, including bytes over the limit).
+    `pause`, when given, is called between the steps (each some milliseconds for a document of
+    megabytes): a server's worker thread lets its event loop have the interpreter lock there.
     """
     lim = limits or XmlLimits()
     if len(data) > lim.max_bytes:
         raise XmlMalformedError(f"document of {len(data)} bytes exceeds {lim.max_bytes}")
     _check_prolog(data)
+    if pause is not None:
+        pause()
     try:
         # lxml reads any buffer (a large frame's XML is the bytearray it arrived in); its
         # type stubs name only str and bytes.
@@ -144,6 +154,8 @@ def parse_xml(data: bytes | bytearray, limits: XmlLimits | None = None) -> etree
         raise XmlMalformedError(str(exc)) from None
     if root is None:
         raise XmlMalformedError("empty document")
+    if pause is not None:
+        pause()
     if _more_than(data, b"<", lim.max_depth):  # fewer tags cannot nest deeper than the limit
         _depth(root, lim.max_depth)
     return root

@@ -12,8 +12,9 @@ is level-triggered), so they come back in the next poll, the next turn, and go f
 address's sockets take their turns round robin, none starves behind others that stay ready.
 Nothing is lost or reordered on a connection — a socket's events are only postponed whole.
 While every open connection comes from one address there is no one to be fair to, and the poll
-is handed over as it is (a benchmark on one machine pays nothing). `openair serve` runs on it
-unless `--fair-slice-ms 0` turns fairness off.
+is handed over as it is (a benchmark on one machine pays nothing). While the worker thread has
+a job, the selector also opens `loopgate.LOOP_GATE` for the duration of each poll that waits.
+`openair serve` runs on it unless `--fair-slice-ms 0` turns fairness off.
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ import asyncio
 import selectors
 import weakref
 from typing import Any
+
+from openair.server.aio.loopgate import LOOP_GATE
 
 __all__ = ["PER_PEER", "FairSelector", "fair_event_loop", "peer_of", "postponed_on"]
 
@@ -53,6 +56,7 @@ class FairSelector(selectors.EpollSelector):
 
     def __init__(self, per_peer: int = PER_PEER) -> None:
         super().__init__()
+        LOOP_GATE.enabled = True  # this loop opens the gate for the worker when it idles
         self.per_peer = per_peer
         self.postponed = 0  # socket events held back for a later poll, in all
         self._peer_of_fd: dict[int, str] = {}  # transports' sockets registered now
@@ -88,7 +92,15 @@ class FairSelector(selectors.EpollSelector):
                 del self._sockets_of[peer]
 
     def select(self, timeout: float | None = None) -> list[tuple[selectors.SelectorKey, int]]:
-        ready = super().select(timeout)
+        gate = LOOP_GATE
+        if gate.busy and timeout != 0:  # nothing else to do: the worker may run (loopgate)
+            gate.polling()
+            try:
+                ready = super().select(timeout)
+            finally:
+                gate.polled()
+        else:
+            ready = super().select(timeout)
         if len(ready) <= self.per_peer or len(self._sockets_of) <= 1:
             if self._owed:
                 self._owed = {}

@@ -21,6 +21,7 @@ import logging
 import time
 import weakref
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING
 
 from openair.protocol.codec import decode_with_lxml, from_frame
@@ -28,7 +29,7 @@ from openair.protocol.connection import Role
 from openair.protocol.errors import LimitExceededError, RemoteProtocolError
 from openair.protocol.framing import Frame, FrameTag
 from openair.protocol.message import Message
-from openair.server.aio.budgets import off_loop_executor
+from openair.server.aio.budgets import off_loop_executor, pause_for_the_loop
 from openair.server.aio.pairing import Wire, salvage
 from openair.server.aio.writer import error_reply
 from openair.server.core.outcome import AwaitedReply
@@ -163,8 +164,9 @@ class Responder:
         """Decode a large request on a worker thread; later frames wait for it (OA-SESS-2)."""
         self.decoding = max(len(frame.xml), 1)
         loop = asyncio.get_running_loop()
+        decode = partial(decode_with_lxml, pause=pause_for_the_loop)  # lets the loop in (#19)
         future = loop.run_in_executor(
-            off_loop_executor(), decode_with_lxml, frame.xml, frame.chunks, self.conn.xml_limits
+            off_loop_executor(), decode, frame.xml, frame.chunks, self.conn.xml_limits
         )
         conn = self.conn
 

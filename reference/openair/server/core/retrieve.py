@@ -24,7 +24,7 @@ from openair.protocol.framing import Wire
 from openair.protocol.message import Message
 from openair.protocol.objects import parse_content
 from openair.protocol.registration import parse_retrieve_element, parse_retrieves
-from openair.protocol.wakeup import collection_parts, encoded_groups, frame_header
+from openair.protocol.wakeup import PeekedCopies, collection_parts, encoded_groups, frame_header
 from openair.protocol.xmlsafe import local_name
 from openair.server.core.commands import error_reply, reply
 from openair.server.core.whiteboard import Whiteboard, select, text_bytes
@@ -103,6 +103,9 @@ class PreparedRetrieve:
     error: OpenAIRError | None = None
     max_xml: int = 0
     max_binary: int = 0
+    # Where a worker thread reads the stored copies' XML (the router's cache) and the pause
+    # it makes between pieces of the work (issue #19); None: encoded here, no pause.
+    copies: PeekedCopies | None = None
 
     @property
     def large(self) -> bool:
@@ -117,7 +120,9 @@ class PreparedRetrieve:
         """
         results: list[Message] = []
         for spec, copies in self.scans:
-            results.extend(select(copies, spec, now_ns=self.now_ns, max_bytes=self.max_xml))
+            results.extend(
+                select(copies, spec, now_ns=self.now_ns, max_bytes=self.max_xml, pause=self._pause)
+            )
             if sum(text_bytes(m) for m in results) > self.max_xml:
                 raise LimitExceededError(
                     f"the results exceed max-frame-xml ({self.max_xml} bytes);"
@@ -163,16 +168,21 @@ class PreparedRetrieve:
         if envelope is None:
             return answer("".join(pieces)), None
         head, _, tail = envelope.partition(_SPLICE)
-        parts = [head.encode("utf-8"), *encoded_groups(pieces), tail.encode("utf-8")]
+        groups = encoded_groups(pieces, pause=self._pause)
+        parts = [head.encode("utf-8"), *groups, tail.encode("utf-8")]
         wire = (frame_header(sum(map(len, parts))), *parts)
         # The reply is the one written (its id): its content, checked above, put in place.
         return spliced.trusted_replace(content="".join(pieces) if text else ""), wire
+
+    @property
+    def _pause(self) -> Callable[[], None] | None:
+        return self.copies.pause if self.copies is not None else None
 
     def _content(self) -> tuple[list[str], tuple[bytes, ...]]:
         if self.error is not None:
             raise self.error
         results = self.results()
-        pieces = collection_parts(results)  # OA-RET-7: what encode_message_collection writes
+        pieces = collection_parts(results, self.copies)  # OA-RET-7: encode_message_collection
         size = sum(len(p) if p.isascii() else len(p.encode("utf-8")) for p in pieces)
         if size + _ENVELOPE_ALLOWANCE > self.max_xml:  # OA-RET-15
             raise LimitExceededError(

@@ -31,7 +31,7 @@ from openair.protocol.matching import PatternIndex
 from openair.protocol.message import Message
 from openair.protocol.times import AirTime
 from openair.protocol.types import validate_type
-from openair.protocol.wakeup import EncodedCopies
+from openair.protocol.wakeup import EncodedCopies, PeekedCopies
 from openair.server.core import commands as cmd
 from openair.server.core.auth import AuthGate
 from openair.server.core.config import (
@@ -317,6 +317,8 @@ class Router(ComponentCommands, StreamRouting, Registrations, Routes):
                 before_read=synced,
             )
             if self.defer_large_replies and prepared.large:  # written off the loop (issue #19)
+                # Through the cache the worker reads (and pauses at) as a large wakeup's build.
+                prepared = replace(prepared, copies=PeekedCopies(self._copies))
                 build = partial(prepared.build, text=not self.frames_only)  # sent: the frame
                 return Outcome(later=build, deliveries=caught_up)
             answer = prepared.build()[0]

@@ -142,7 +142,7 @@ async def _main(filters: Sequence[str]) -> int:
     # The canary's first round trips (a fresh process, a fresh server) are slower than its
     # steady ones: they would make the first attack's quiet series, and its ratio, flattering.
     await asyncio.sleep(WARMUP_S)
-    print(f"canary niceness: {canary.nice} (the server's: 0; -10 when allowed, see Canary)")
+    print(f"scheduling: canary {canary.policy}, attacker nice 19, server nice 0")
     ok = True
     try:
         for name, item, attack, budget, setup in chosen:

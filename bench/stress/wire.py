@@ -88,20 +88,23 @@ class Canary:
     however late their lines arrive. A PING that gets no answer within the socket timeout
     counts as one of `timeouts`.
 
-    The canary runs at a higher scheduling priority than the server (`CANARY_NICE`, when the
-    user may raise it): it stands for another host's client, and on this machine the kernel
-    wakes it on the processor of the server that just wrote its answer, where it waited for the
-    server's time slice to end. Measured (2026-11-29, monitor-half-requests): the server wrote
-    the answers of the slowest PINGs 0.2-1.3 ms after they were sent, the canary read them
-    4-5 ms after; at the higher priority its p99 fell from 5-6 ms to 2 ms (quiet: 0.4-0.5 ms).
-    `nice` is the niceness the canary runs at (None until it said).
+    The canary runs ahead of the server in the processor's queue when the user may arrange it
+    (`_raise_priority`): it stands for another host's client, whose own scheduling is not the
+    server's doing. On this machine the kernel wakes it on the processor of the server that just
+    wrote its answer. Measured (2026-11-29, monitor-half-requests): the server wrote the answers
+    of the slowest PINGs 0.2-1.3 ms after they were sent, the canary read them 4-5 ms after; at
+    nice -10 its p99 fell from 5-6 ms to 2 ms. Nice -10 was not enough under the heavier
+    attacks: `perf sched timehist` over history-bytes (2026-11-29, eighth session) showed the
+    canary waiting for a processor more than 0.5 ms 67 times in 2 s (max 3.8 ms; the kernel's
+    EEVDF scheduler lets the running task finish its slice), so it now asks for the real-time
+    FIFO class, which takes the processor at once. `policy` is what it got (None until it said).
     """
 
     port: int
     period_s: float = 0.005
     samples: list[tuple[float, float]] = field(default_factory=list)
     timeouts: int = 0
-    nice: int | None = None
+    policy: str | None = None
     _proc: subprocess.Popen[str] | None = None
     _thread: threading.Thread | None = None
 
@@ -162,27 +165,36 @@ class Canary:
         for line in self._proc.stdout:
             if line.startswith("timeout"):
                 self.timeouts += 1
-            elif line.startswith("nice "):
-                self.nice = int(line.split()[1])
+            elif line.startswith("policy "):
+                self.policy = line.split(maxsplit=1)[1].strip()
             elif line.strip():
                 at, ms = line.split()
                 self.samples.append((float(at), float(ms)))
 
 
-#: The canary's niceness: before the server's (0) when the user may raise priority.
+#: The canary's niceness when it may not use the real-time class: before the server's (0).
 CANARY_NICE = -10
+#: Its real-time priority, the lowest: above every task of the ordinary class, the server's too.
+CANARY_FIFO = 1
 
 
-def _raise_priority() -> None:
-    """Run at `CANARY_NICE` when allowed (root, CAP_SYS_NICE); stay as it is otherwise."""
+def _raise_priority() -> str:
+    """Take the FIFO real-time class, else `CANARY_NICE`, as far as allowed; say which.
+
+    The canary sleeps between PINGs and blocks on each answer, so it holds a processor for
+    tens of microseconds at a time; the kernel's real-time throttling bounds it besides.
+    """
+    with contextlib.suppress(OSError, AttributeError):
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(CANARY_FIFO))
+        return f"fifo {CANARY_FIFO}"
     with contextlib.suppress(OSError):
         os.setpriority(os.PRIO_PROCESS, 0, CANARY_NICE)
+    return f"nice {os.getpriority(os.PRIO_PROCESS, 0)}"
 
 
 def ping_forever(port: int, period_s: float) -> None:
     """The canary process: PING the server, print `began ms` per answer, until killed."""
-    _raise_priority()
-    print(f"nice {os.getpriority(os.PRIO_PROCESS, 0)}", flush=True)
+    print(f"policy {_raise_priority()}", flush=True)
     # From another loopback address than the attacks: the canary is another host's client,
     # and the server shares its time between peer addresses (--fair-slice-ms).
     with socket.create_connection(

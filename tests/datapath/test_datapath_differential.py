@@ -187,6 +187,7 @@ def test_the_comparison_can_fail() -> None:
 
     class Dropping:
         name = "dropping"
+        find_marker = None
 
         def feed(self, conn: object, data: bytes, received_ns: int) -> bytes:
             return data[len(data) // 2 :]

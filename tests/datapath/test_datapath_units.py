@@ -61,6 +61,44 @@ def test_the_native_splitter_agrees_with_the_python_one(
     assert native.split(data, pos, max_xml) == split_plain(data, pos, max_xml)  # type: ignore[union-attr]
 
 
+_MARKER_ALPHABET = b"bBiInNaArRyYsSzZeE x<>"
+
+
+@settings(max_examples=500)
+@given(
+    data=st.lists(
+        st.sampled_from([b"binarysizes", b"BinarySizes", b"binarysize", b"bx", b"B"])
+        | st.binary(max_size=4)
+        | st.sampled_from([bytes([c]) for c in _MARKER_ALPHABET]),
+        max_size=30,
+    ).map(b"".join),
+    start=st.integers(-2, 80),
+    end=st.integers(-2, 200),
+)
+def test_the_native_marker_search_answers_as_a_lowered_search(
+    data: bytes, start: int, end: int
+) -> None:
+    native = datapaths().get("native")
+    if native is None or native.find_marker is None:
+        pytest.skip("the native extension is not built")
+    lo, hi = max(start, 0), min(end, len(data))
+    expected = hi > lo and b"binarysizes" in data[lo:hi].lower()
+    assert native.find_marker(bytearray(data), start, end) is expected
+
+
+def test_the_native_marker_search_is_linear_on_many_candidates() -> None:
+    """Searching for `b` and `B` again after each candidate was quadratic: a 1 MiB post of
+    `bx` held the loop 2.6 s, a 16 MiB one would have held it for minutes (issue #19)."""
+    native = datapaths().get("native")
+    if native is None or native.find_marker is None:
+        pytest.skip("the native extension is not built")
+    data = bytearray(b"bx" * (8 << 20)) + b"BINARYSIZES"  # 16 MiB of candidates, then one
+    assert native.find_marker(data, 0, len(data)) is True
+    assert native.find_marker(data, 0, len(data) - 1) is False
+    frame = b"Message\0" + (len(data) - 11).to_bytes(4, "little") + data[:-11]
+    assert native.split(frame, 0, 1 << 30) == [(12, len(frame))]  # type: ignore[union-attr]
+
+
 _POSTED = AirTime(sec=1_764_300_000, msec=7)
 
 

@@ -191,6 +191,36 @@ def test_unfinished_frames_beyond_the_total_budget_are_refused() -> None:
     run(body)
 
 
+def test_a_refused_connection_gives_its_unfinished_bytes_back_at_once() -> None:
+    """Not when the connection is lost: its lingering close waits for the peer (issue #19)."""
+
+    async def body() -> None:
+        server = await serving(ServerOptions(limits=ServerLimits(max_partial_bytes=8 * KIB)))
+        frame = encode_frame(to_frame(_big(1, 16 * KIB)))
+        slow = await Raw.open(server.port)
+        slow.write(frame[: 6 * KIB])
+        other = await Raw.open(server.port)
+        other.write(frame[: 1 * KIB])  # 7 KiB unfinished in all: within the budget
+        for _ in range(int(BOUND / 0.01)):  # until the server has read both
+            if server.budget.partial_bytes == 7 * KIB:
+                break
+            await asyncio.sleep(0.01)
+        assert server.budget.partial_bytes == 7 * KIB
+        other.write(frame[1 * KIB : 4 * KIB])  # 9 KiB: past the budget
+        reply = await asyncio.wait_for(other.recv(), BOUND)
+        assert reply is not None and reply.content.startswith("LIMIT_EXCEEDED")  # OA-LIM-12
+        # `other` is still open (it has not closed its side): the server lingers, and yet
+        assert server.budget.partial_bytes == 6 * KIB  # its kilobyte is given back
+        port = other.writer.get_extra_info("sockname")[1]
+        refused = [c for c in server._conns.values() if c.peer[1] == port]
+        assert refused and refused[0].reader.buffered == 0  # and its bytes are gone
+        await other.close()
+        await slow.close()
+        await server.stop()
+
+    run(body)
+
+
 class _Host:
     def __init__(self, limits: ServerLimits) -> None:
         self.limits = limits

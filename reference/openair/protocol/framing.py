@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import enum
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from lxml import etree
@@ -252,6 +252,7 @@ class FrameReader:
         "_buf",
         "_eof",
         "_error",
+        "_find_marker",
         "_limits",
         "_marked",
         "_pending",
@@ -261,8 +262,17 @@ class FrameReader:
         "_tag",
     )
 
-    def __init__(self, limits: FrameLimits | None = None) -> None:
+    def __init__(
+        self,
+        limits: FrameLimits | None = None,
+        *,
+        find_marker: Callable[[bytearray, int, int], bool] | None = None,
+    ) -> None:
+        # `find_marker(buf, start, end)`, when given, tells whether `binarysizes` occurs in
+        # `buf[start:end]` in any case: a faster search than `_scan`'s own (the server's C
+        # extension, issue #19), which must answer exactly as that one does.
         self._limits = limits or FrameLimits()
+        self._find_marker = find_marker
         self._buf = bytearray()
         self._pos = 0  # start of the current frame in _buf; bytes before it are consumed
         self._tag: FrameTag | None = None  # set once the current frame's header is valid
@@ -425,6 +435,10 @@ class FrameReader:
         begin = start + max(self._scanned - _MARKER_LEN + 1, 0)  # a marker across two reads
         end = start + upto
         buf = self._buf
+        if self._find_marker is not None:
+            self._marked = self._find_marker(buf, begin, end)
+            self._scanned = upto
+            return
         # A lowered copy and a plain search: a tenth of the time of a case-blind expression. In
         # windows under the allocator's mmap threshold: a copy of a whole read (256 KiB) is
         # mapped and unmapped each time, page faults included, at twice the cost.

@@ -46,6 +46,7 @@ from openair.protocol.message import Message
 from openair.protocol.xmlsafe import XmlLimits
 from openair.server.aio.connhost import ConnectionHost
 from openair.server.aio.datapath import DataPath, datapath_of
+from openair.server.aio.datapath.base import RESPLICE_MAX
 from openair.server.aio.fairness import Turns
 from openair.server.aio.pairing import Requester, Waiter, Wire, fail_waiter
 from openair.server.aio.responder import Responder
@@ -87,7 +88,9 @@ class ServerConnection(asyncio.BufferedProtocol):
         self.peer = ("", 0)
         self.transport: asyncio.Transport | None = None
         self.closed = asyncio.get_running_loop().create_future()
-        self.reader = FrameReader(host.limits.frame_limits())
+        # The bytes-level data path offered every read first (issue #20); None: the reference.
+        self._datapath: DataPath | None = datapath_of(host)
+        self.reader = self._new_reader()
         self.xml_limits: XmlLimits = host.limits.xml_limits()
         self.writer = FrameWriter()
         self.responder = Responder(self)  # the requests, as RESPONDER
@@ -118,8 +121,6 @@ class ServerConnection(asyncio.BufferedProtocol):
         # The server's shared budget (OA-LIM-11/12); hosts built for tests may have none.
         self._budget: Budget | None = getattr(host, "budget", None)
         self._partial = 0  # unfinished-frame bytes counted in the budget (OA-LIM-12)
-        # The bytes-level data path offered every read first (issue #20); None: the reference.
-        self._datapath: DataPath | None = datapath_of(host)
         self.turns: Turns | None = getattr(host, "turns", None)
 
     @property
@@ -157,10 +158,17 @@ class ServerConnection(asyncio.BufferedProtocol):
         return _READ_BUFFER
 
     def buffer_updated(self, nbytes: int) -> None:
-        """Take the `nbytes` just read as `data_received` would (a copy of exactly that size)."""
-        self.data_received(_READ_BUFFER[:nbytes].tobytes())
+        """Take the `nbytes` just read as `data_received` would.
 
-    def data_received(self, data: bytes) -> None:
+        The rest of a large frame goes to the reader as a view of the loop's buffer, which the
+        reader copies once, into the frame (the data path leaves such reads to it): a copy of
+        the read first doubled the loop's work on megabytes and churned the heap (issue #19).
+        Anything else is a copy of exactly the bytes read.
+        """
+        view = _READ_BUFFER[:nbytes]
+        self.data_received(view if self.reader.buffered > RESPLICE_MAX else view.tobytes())
+
+    def data_received(self, data: bytes | memoryview) -> None:
         received_ns = time.time_ns()  # OA-TIME-3: the first act on receipt
         if self._closing:
             return  # OA-FRAME-9: nothing after a failure or a close is processed
@@ -176,7 +184,7 @@ class ServerConnection(asyncio.BufferedProtocol):
             # This peer spent its slice of the turn (issue #19): keep the bytes, act later.
             if not self._kept:
                 self._turn_ns = received_ns
-            self._kept.append(data)
+            self._kept.append(bytes(data))  # a view of the loop's buffer is only lent
             self._kept_bytes += len(data)
             if self._hold_partial():
                 self._wait_turn(received_ns)
@@ -190,8 +198,12 @@ class ServerConnection(asyncio.BufferedProtocol):
             self._in_turn = False
             turns.charge(peer, turns.clock() - began + len(data) * turns.read_cost)
 
-    def _receive(self, data: bytes, received_ns: int) -> None:
+    def _receive(self, data: bytes | memoryview, received_ns: int) -> None:
         """Act on one read: the monitor's if it starts HTTP, else the frames in it."""
+        if isinstance(data, memoryview):  # the rest of a large frame (`buffer_updated`)
+            if self._feed_reader(data):
+                self.process(received_ns)
+            return
         if self.frames_in == 0 and self._taken_by_http(data):
             return
         self._take(data, received_ns)
@@ -206,7 +218,7 @@ class ServerConnection(asyncio.BufferedProtocol):
         if self._feed_reader(data):
             self.process(received_ns)
 
-    def _feed_reader(self, data: bytes) -> bool:
+    def _feed_reader(self, data: bytes | memoryview) -> bool:
         """Buffer `data` in the frame reader; False (and closed) after a framing error."""
         try:
             self.reader.feed(data)
@@ -321,7 +333,28 @@ class ServerConnection(asyncio.BufferedProtocol):
                 f"unfinished frames of all connections passed max-partial-bytes ({limit} bytes)"
             )
         )
+        self._drop_unfinished()
         return False
+
+    def _new_reader(self) -> FrameReader:
+        """A frame reader with the data path's search for `binarysizes` when it has one (#19)."""
+        find = self._datapath.find_marker if self._datapath is not None else None
+        return FrameReader(self.host.limits.frame_limits(), find_marker=find)
+
+    def _drop_unfinished(self) -> None:
+        """Forget the unfinished bytes of a connection that closes: nothing more is read.
+
+        Now, not when the connection is lost: a lingering close lasts until the peer has read
+        the error, and the bytes of the refused read were in no budget (issue #19: 24 refused
+        connections of `make stress`'s slowloris held 4-6 MiB past max-partial-bytes). A frame
+        in decoding stays counted until the connection is lost.
+        """
+        self.reader = self._new_reader()  # the old one's buffer goes with it
+        self._kept, self._kept_bytes = [], 0
+        decoding = self.responder.decoding
+        if self._budget is not None and self._partial > decoding:
+            self._budget.hold_partial(decoding - self._partial)
+            self._partial = decoding
 
     def _taken_by_http(self, data: bytes) -> bool:
         """Hand a fresh responder connection that starts with an HTTP method to the monitor."""

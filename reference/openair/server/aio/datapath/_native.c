@@ -5,6 +5,8 @@
  * (OA-FRAME-1), L <= max_xml (OA-LIM-1), the whole frame present, and no "binarysizes" in the
  * XML in any case (such a frame may carry chunks, OA-FRAME-4: the reader decides). It stops at
  * the first frame that is not plain or not complete. No state, no allocation but the result.
+ *
+ * find_marker(buf, start, end) -> bool: the same search for "binarysizes", for FrameReader.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -16,24 +18,41 @@ static const char MARKER[] = "binarysizes";
 
 static int lower(unsigned char c) { return (c >= 'A' && c <= 'Z') ? c + 32 : c; }
 
-/* Whether "binarysizes" occurs in [p, p+n) ignoring ASCII case. */
+/* Whether "binarysizes" occurs in [p, p+n) ignoring ASCII case. Linear: the next 'b' and the
+ * next 'B' are each searched for again only once the scan has passed them (searching for both
+ * after every candidate was quadratic on a text of "bx" repeated). */
 static int has_marker(const unsigned char *p, Py_ssize_t n) {
-    for (Py_ssize_t i = 0; i + MARKER_LEN <= n; i++) {
-        int c = lower(p[i]);
-        if (c != 'b') {
-            /* skip quickly to the next 'b' or 'B' */
-            const unsigned char *b1 = memchr(p + i + 1, 'b', (size_t)(n - i - 1));
-            const unsigned char *b2 = memchr(p + i + 1, 'B', (size_t)(n - i - 1));
-            const unsigned char *next = b1 == NULL ? b2 : (b2 == NULL || b1 < b2 ? b1 : b2);
-            if (next == NULL) return 0;
-            i = (next - p) - 1;
-            continue;
+    const unsigned char *end = p + n, *cur = p, *next_b = NULL, *next_B = NULL;
+    while (end - cur >= MARKER_LEN) {
+        if (next_b == NULL || next_b < cur) {
+            next_b = memchr(cur, 'b', (size_t)(end - cur));
+            if (next_b == NULL) next_b = end;
         }
+        if (next_B == NULL || next_B < cur) {
+            next_B = memchr(cur, 'B', (size_t)(end - cur));
+            if (next_B == NULL) next_B = end;
+        }
+        const unsigned char *c = next_b < next_B ? next_b : next_B;
+        if (end - c < MARKER_LEN) return 0;
         Py_ssize_t k = 1;
-        while (k < MARKER_LEN && lower(p[i + k]) == MARKER[k]) k++;
+        while (k < MARKER_LEN && lower(c[k]) == MARKER[k]) k++;
         if (k == MARKER_LEN) return 1;
+        cur = c + 1;
     }
     return 0;
+}
+
+/* find_marker(buf, start, end) -> bool: whether "binarysizes" occurs in buf[start:end] in any
+ * case (FrameReader's search for the marker, OA-FRAME-4), clipped to the buffer. */
+static PyObject *find_marker(PyObject *self, PyObject *args) {
+    Py_buffer view;
+    Py_ssize_t start, end;
+    if (!PyArg_ParseTuple(args, "y*nn", &view, &start, &end)) return NULL;
+    if (start < 0) start = 0;
+    if (end > view.len) end = view.len;
+    int found = end > start && has_marker((const unsigned char *)view.buf + start, end - start);
+    PyBuffer_Release(&view);
+    return PyBool_FromLong(found);
 }
 
 static PyObject *split(PyObject *self, PyObject *args) {
@@ -67,6 +86,7 @@ done:
 
 static PyMethodDef methods[] = {
     {"split", split, METH_VARARGS, "Return the XML spans of the complete plain Message frames."},
+    {"find_marker", find_marker, METH_VARARGS, "Whether buf[start:end] holds binarysizes."},
     {NULL, NULL, 0, NULL},
 };
 

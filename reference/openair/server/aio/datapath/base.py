@@ -14,6 +14,7 @@ for every input; tests/datapath checks that with generated traffic.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Protocol
 
 from openair.protocol.framing import Frame, FrameTag
@@ -68,6 +69,9 @@ class DataPath(Protocol):
 
     #: `python` or `native` (the reference path is no data path at all).
     name: str
+    #: A search for `binarysizes` the connection's `FrameReader` uses instead of its own
+    #: (`FrameReader(find_marker=)`): the C extension's; None: the reader's.
+    find_marker: Callable[[bytearray, int, int], bool] | None
 
     def feed(self, conn: ServerConnection, data: bytes, received_ns: int) -> bytes:
         """Act on the complete frames it recognises at the front; return the bytes left.

@@ -14,10 +14,11 @@ __all__ = ["NativePath"]
 
 
 class NativePath(PurePath):
-    """The pure path's decisions, the C extension's frame splitting."""
+    """The pure path's decisions, the C extension's frame splitting and marker search."""
 
     name = "native"
 
     def __init__(self) -> None:
         super().__init__()
         self.split = _native.split
+        self.find_marker = _native.find_marker  # linear in C (issue #19)

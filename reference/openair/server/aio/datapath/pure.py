@@ -83,6 +83,7 @@ class PurePath:
 
     def __init__(self) -> None:
         self.split = split_plain
+        self.find_marker: Callable[[bytearray, int, int], bool] | None = None  # the reader's
         self.requests = 0  # requests it routed
         self.acks = 0  # acknowledgements it paired
 

@@ -26,6 +26,16 @@ def frame_of(msg: Message, tag: FrameTag = FrameTag.MESSAGE) -> bytes:
     return encode_frame(to_frame(msg, tag))
 
 
+#: The send buffer of every attacking socket. The kernel grows a loopback socket's buffer to
+#: megabytes, and one `send` then copies and delivers them in one call that, on this machine's
+#: kernel (no preemption inside system calls), holds a processor for milliseconds: the server's
+#: loop waited for it (`perf sched`, 2026-11-29). A remote attacker's kernel does that work on
+#: its own host, and a network card's receive path takes a bounded batch at a time. Measured
+#: on slowloris (three runs each): canary p99 2.8-3.9 ms with the grown buffer, 1.1-1.4 ms
+#: with this one; the attacks are as large either way.
+ATTACKER_SNDBUF = 256 * 1024
+
+
 class Raw:
     """A raw connection: write frames or bytes, read whole messages back."""
 
@@ -38,6 +48,8 @@ class Raw:
     @classmethod
     async def open(cls, port: int) -> Raw:
         reader, writer = await asyncio.open_connection("127.0.0.1", port)
+        sock = writer.get_extra_info("socket")
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, ATTACKER_SNDBUF)
         return cls(reader, writer)
 
     def send(self, msg: Message, tag: FrameTag = FrameTag.MESSAGE) -> None:

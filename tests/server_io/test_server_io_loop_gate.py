@@ -80,6 +80,7 @@ def _polls(monkeypatch: pytest.MonkeyPatch, gate: LoopGate, timeout: float | Non
     plain = selectors.EpollSelector.select
 
     def watched(self: Any, t: float | None = None) -> list[Any]:
+        assert gate.enabled  # a FairSelector enables the gate it opens, while it is open
         seen.append(gate._open.is_set())
         return plain(self, t)
 
@@ -102,13 +103,13 @@ def test_the_selector_opens_the_gate_only_for_a_waiting_poll_during_a_job(
     gate = LoopGate()
     monkeypatch.setattr("openair.server.aio.fairselect.LOOP_GATE", gate)
     assert _polls(monkeypatch, gate, 0.01) == [False]  # no job: nothing to open for
-    assert gate.enabled  # a FairSelector enables the gate it opens
     gate.job_submitted()
     assert _polls(monkeypatch, gate, 0.01) == [True]  # a job waits: open while the loop polls
     assert not gate._open.is_set()  # and shut once the poll returned
     assert _polls(monkeypatch, gate, 0) == [False]  # callbacks ready: the loop is at work
     gate.job_ended()
     assert _polls(monkeypatch, gate, 0.01) == [False]
+    assert not gate.enabled  # the selector closed: no loop opens the gate any more
 
 
 # -- the executor counts the jobs ----------------------------------------------------------------

@@ -68,6 +68,10 @@ class FairSelector(selectors.EpollSelector):
         """Whether sockets of more than one peer address are registered (fairness applies)."""
         return len(self._sockets_of) > 1
 
+    def close(self) -> None:
+        super().close()
+        LOOP_GATE.enabled = False  # no loop opens it now: the worker must not wait for one
+
     def register(self, fileobj: Any, events: int, data: Any = None) -> selectors.SelectorKey:
         key = super().register(fileobj, events, data)
         self._forget(key.fd)  # a socket whose failed `modify` unregistered it past us

@@ -37,8 +37,9 @@ class LoopGate:
 
     def __init__(self) -> None:
         self._open = threading.Event()
-        #: Whether a loop opens the gate when it polls (a `FairSelector` was made); without
-        #: one the worker never waits (there would be no one to open it).
+        #: Whether a loop opens the gate when it polls (a `FairSelector` is open: set when one is
+        #: made, cleared when it closes); without one the worker never waits (no one would
+        #: open the gate).
         self.enabled = False
         # Jobs handed to the worker (counted by the loop as it submits one) and jobs ended
         # (counted by the worker): one writer each, no lock. Counted at submission, not when

@@ -65,8 +65,7 @@ def quiet_accept_errors(
 
 _M_TRIM_THRESHOLD = -1  # glibc mallopt parameters (malloc.h)
 _M_MMAP_THRESHOLD = -3
-#: Blocks of this size or more are mappings of their own (`return_large_buffers`).
-MMAP_FROM = 256 * 1024
+_MMAP_FROM = 256 * 1024
 
 
 def return_large_buffers() -> bool:
@@ -82,8 +81,8 @@ def return_large_buffers() -> bool:
         import ctypes  # only here: the rest of the server has no use for it
 
         libc = ctypes.CDLL("libc.so.6")
-        ok = int(libc.mallopt(_M_MMAP_THRESHOLD, MMAP_FROM)) == 1
-        return ok and int(libc.mallopt(_M_TRIM_THRESHOLD, 4 * MMAP_FROM)) == 1
+        ok = int(libc.mallopt(_M_MMAP_THRESHOLD, _MMAP_FROM)) == 1
+        return ok and int(libc.mallopt(_M_TRIM_THRESHOLD, 4 * _MMAP_FROM)) == 1
     except (OSError, AttributeError):
         return False
 

@@ -344,10 +344,11 @@ class ServerConnection(asyncio.BufferedProtocol):
     def _drop_unfinished(self) -> None:
         """Forget the unfinished bytes of a connection that closes: nothing more is read.
 
-        Now, not when the connection is lost: a lingering close lasts until the peer has read
-        the error, and the bytes of the refused read were in no budget (issue #19: 24 refused
-        connections of `make stress`'s slowloris held 4-6 MiB past max-partial-bytes). A frame
-        in decoding stays counted until the connection is lost.
+        Given back to the budget of unfinished frames (OA-LIM-12) now, not when the connection
+        is lost: a lingering close lasts until the peer has read the error, and the bytes of
+        the refused read were in no budget (issue #19: 24 refused connections of `make
+        stress`'s slowloris held 4-6 MiB past max-partial-bytes). A frame in decoding stays
+        counted until the connection is lost.
         """
         self.reader = self._new_reader()  # the old one's buffer goes with it
         self._kept, self._kept_bytes = [], 0
